@@ -56,8 +56,12 @@ def test_near_whole_shifts_are_snapped_to_exact_integers():
 def test_camera_from_positions_and_offsets():
     cam = Camera.from_positions([0, 1, 2, 3, 4])
     assert cam.reference_index == 2 and cam.K == 5
-    np.testing.assert_array_equal(cam.offset(0), [-2, 0])
+    np.testing.assert_array_equal(cam.view_offset(0), [-2, 0])
     np.testing.assert_array_equal(cam.offset(3.5), [1.5, 0])
+    # a number is a position, never a view index, whatever its type
+    np.testing.assert_array_equal(cam.offset(np.int64(0)), [-2, 0])
+    np.testing.assert_array_equal(cam.offset(np.int64(4)), [2, 0])
+    np.testing.assert_array_equal(Camera.from_positions([0, 2, 4], reference=1).offset(np.int64(2)), [0, 0])
     assert Camera.from_dict(cam.to_dict()) == cam
 
 

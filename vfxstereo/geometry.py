@@ -112,13 +112,20 @@ class Camera:
         """True when views are given by camera matrices rather than baseline positions."""
         return self.matrices is not None
 
-    def offset(self, k_or_position) -> np.ndarray:
-        """``p - p_ref`` for view index ``k`` (int) or for an explicit position (float or pair)."""
-        if isinstance(k_or_position, int | np.integer):
-            return self.positions[int(k_or_position)] - self.reference
-        p = np.asarray(k_or_position, dtype=np.float64).reshape(-1)
+    def view_offset(self, k: int) -> np.ndarray:
+        """``p_k - p_ref`` of view ``k`` (an index into :attr:`positions`)."""
+        return self.positions[int(k)] - self.reference
+
+    def offset(self, position) -> np.ndarray:
+        """``p - p_ref`` for a camera at ``position`` (a number or an ``(x, y)`` pair, in view steps).
+
+        A number is always a position, never a view index: use :meth:`view_offset` for view k.
+        """
+        p = np.asarray(position, dtype=np.float64).reshape(-1)
         if p.size == 1:
             p = np.array([p[0], 0.0])
+        if p.shape != (2,) or not np.all(np.isfinite(p)):
+            raise VfxStereoError(f"a camera position is one number or an (x, y) pair, got {position!r}")
         return p - self.reference
 
     def depth_from_disparity(self, d) -> np.ndarray:

@@ -57,19 +57,19 @@ class Warper:
         """W_f (Eq. 1): view ``k`` resampled onto plane ``i``; zero where the plane cell falls outside."""
         if self._general is not None:
             return self._general.to_plane(image, k, i)
-        return view_to_plane(image, self.disparities[i], self.camera.offset(k))
+        return view_to_plane(image, self.disparities[i], self.camera.view_offset(k))
 
     def to_view(self, layer: np.ndarray, k: int, i: int) -> np.ndarray:
         """W_b (Eq. 5): plane ``i`` resampled into view ``k``; zero where the view pixel sees off the plane."""
         if self._general is not None:
             return self._general.to_view(layer, k, i)
-        return plane_to_view(layer, self.disparities[i], self.camera.offset(k))
+        return plane_to_view(layer, self.disparities[i], self.camera.view_offset(k))
 
     def to_view_adjoint(self, g: np.ndarray, k: int, i: int) -> np.ndarray:
         """Exact transpose of :meth:`to_view`: ``<to_view(a), b> == <a, to_view_adjoint(b)>``."""
         if self._general is not None:
             return self._general.to_view_adjoint(g, k, i)
-        return view_to_plane(g, self.disparities[i], self.camera.offset(k))
+        return view_to_plane(g, self.disparities[i], self.camera.view_offset(k))
 
     def coverage(self, k: int, i: int) -> np.ndarray:
         """(H, W) float32 in [0, 1]: how much of each plane-``i`` cell's bilinear footprint lies in view ``k``."""
