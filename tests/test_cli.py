@@ -1,0 +1,267 @@
+"""The command line on real files: outputs, bad input (one line, exit 2, nothing written), frame sequences."""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from vfxstereo import cli, composite, samples
+from vfxstereo.io import exr
+
+SHAPE = (48, 48)
+
+
+def run_cli(*args, cwd=None):
+    """Run the real command in a new process; returns (status, stdout, stderr)."""
+    proc = subprocess.run([sys.executable, "-m", "vfxstereo.cli", *map(str, args)], capture_output=True,
+                          text=True, cwd=cwd, timeout=300)
+    return proc.returncode, proc.stdout, proc.stderr
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return samples.random_dot_stereogram(shape=SHAPE, seed=3)
+
+
+@pytest.fixture
+def views(tmp_path, scene):
+    paths = []
+    for k, view in enumerate(scene.views):
+        p = tmp_path / f"view{k}.exr"
+        exr.write_image(p, view)
+        paths.append(p)
+    return paths
+
+
+@pytest.fixture(scope="module")
+def stack_file(tmp_path_factory, scene):
+    path = tmp_path_factory.mktemp("stack") / "stack.exr"
+    exr.write_stack(path, scene.stack, half=False)
+    return path
+
+
+def files_in(folder: Path) -> set[str]:
+    return {p.name for p in folder.iterdir()}
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Working commands
+
+
+def test_solve_writes_stack_disparity_and_deep(tmp_path, views, scene):
+    out = tmp_path / "out"
+    out.mkdir()
+    status, _, err = run_cli("solve", *views, "-o", out / "s.exr", "--disparities", "0:7", "--preset", "wta",
+                             "--disparity-out", out / "d.exr", "--deep-out", out / "deep.exr", "-q")
+    assert status == 0, err
+    stack = exr.read_stack(out / "s.exr")
+    assert stack.depth == 8 and stack.shape[1:] == SHAPE
+    np.testing.assert_array_equal(stack.disparities, np.arange(8.0))
+    d, names, _ = exr.read_image(out / "d.exr")
+    assert d.shape == SHAPE + (1,)
+    gt = scene.gt_disparity()
+    assert np.mean(np.abs(d[..., 0] - gt) < 0.5) > 0.8  # wta on the stereogram gets most pixels right
+    assert exr.read_deep(out / "deep.exr") is not None
+    assert files_in(out) == {"s.exr", "d.exr", "deep.exr"}
+
+
+def test_solve_from_dataset_json(tmp_path, views, scene):
+    import json
+
+    (tmp_path / "dataset.json").write_text(json.dumps({
+        "views": [p.name for p in views], "positions": list(map(float, scene.positions)),
+        "reference": scene.reference}))
+    status, _, err = run_cli("solve", "--dataset", tmp_path, "-o", tmp_path / "s.exr", "--disparities", "0:7",
+                             "--preset", "wta", "-q")
+    assert status == 0, err
+    assert exr.read_stack(tmp_path / "s.exr").camera.reference_index == scene.reference
+
+
+def test_zkey_split_render_info(tmp_path, stack_file, scene):
+    element = np.zeros(SHAPE + (4,), np.float32)
+    element[10:30, 10:30] = [0.2, 0.2, 0.2, 1.0]
+    exr.write_image(tmp_path / "el.exr", element)
+    status, _, err = run_cli("zkey", stack_file, tmp_path / "el.exr", "--disparity", "4.5", "-o",
+                             tmp_path / "comp.exr", "--front-out", tmp_path / "f.exr", "--back-out",
+                             tmp_path / "b.exr", "--holdout-out", tmp_path / "h.exr", "-q")
+    assert status == 0, err
+    comp, _, _ = exr.read_image(tmp_path / "comp.exr")
+    np.testing.assert_allclose(comp, composite.insert(scene.stack, element, disparity=4.5), atol=1e-6)
+    front, _, _ = exr.read_image(tmp_path / "f.exr")
+    back, _, _ = exr.read_image(tmp_path / "b.exr")
+    np.testing.assert_allclose(composite.over(front, composite.over(element, back)), comp, atol=1e-6)
+    status, _, err = run_cli("render", stack_file, "--position", "0", "-o", tmp_path / "v0.exr", "-q")
+    assert status == 0, err
+    v0, _, _ = exr.read_image(tmp_path / "v0.exr")
+    np.testing.assert_allclose(v0[..., :3], scene.views[0], atol=1e-6)
+    status, out, _ = run_cli("info", stack_file, "--json")
+    assert status == 0 and '"disparity": 7.0' in out
+    status, out, _ = run_cli("info", stack_file)
+    assert status == 0 and "8 layers" in out
+
+
+def test_png_outputs_are_display_encoded(tmp_path, stack_file, scene):
+    import OpenImageIO as oiio
+
+    status, _, err = run_cli("render", stack_file, "--position", "2", "-o", tmp_path / "v.png", "-q")
+    assert status == 0, err
+    png = oiio.ImageBuf(str(tmp_path / "v.png")).get_pixels(oiio.UINT8).astype(np.float64) / 255.0
+    linear = scene.views[2]
+    srgb = np.where(linear <= 0.0031308, 12.92 * linear, 1.055 * np.power(linear, 1 / 2.4) - 0.055)
+    np.testing.assert_allclose(png[..., :3], srgb, atol=1.0 / 255 + 1e-6)
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Bad input: one clear line on stderr, exit status 2, no output created or clobbered
+
+
+def _bad_cases(tmp: Path, views: list[Path], stack_file: Path):
+    """(name, argv, expected words in the message); every case writes to tmp/'out.exr'."""
+    out = tmp / "out.exr"
+    small = tmp / "small.exr"
+    exr.write_image(small, np.zeros((20, 30, 3), np.float32))
+    nan_view = tmp / "nan.exr"
+    img = np.full(SHAPE + (3,), 0.5, np.float32)
+    img[3, 4, 1] = np.nan
+    exr.write_image(nan_view, img)
+    inf_view = tmp / "inf.exr"
+    img[3, 4, 1] = np.inf
+    exr.write_image(inf_view, img)
+    truncated = tmp / "trunc.exr"
+    truncated.write_bytes(views[0].read_bytes()[:300])
+    plain = tmp / "plain.exr"
+    exr.write_image(plain, np.zeros(SHAPE + (4,), np.float32))
+    wrong_element = tmp / "el_small.exr"
+    exr.write_image(wrong_element, np.zeros((10, 12, 4), np.float32))
+    a_file = tmp / "not_a_folder"
+    a_file.write_text("x")
+    v = [str(p) for p in views]
+    return [
+        ("missing view", ["solve", v[0], str(tmp / "nope.exr"), *v[2:], "-o", out], ["not found", "nope.exr"]),
+        ("different sizes", ["solve", *v[:2], str(small), "-o", out], ["size"]),
+        ("one view", ["solve", v[0], "-o", out], ["at least two"]),
+        ("truncated view", ["solve", *v[:2], str(truncated), "-o", out], ["trunc.exr"]),
+        ("nan in plate", ["solve", *v[:2], str(nan_view), "-o", out], ["nan.exr"]),
+        ("inf in plate", ["solve", *v[:2], str(inf_view), "-o", out], ["inf.exr"]),
+        ("not a stack", ["zkey", str(plain), str(plain), "--disparity", "1", "-o", out], ["plain.exr"]),
+        ("truncated stack", ["info", str(truncated)], ["trunc.exr"]),
+        ("min >= max", ["solve", *v, "-o", out, "--disparities", "5:5"], ["MIN", "MAX"]),
+        ("too many planes", ["solve", *v, "-o", out, "--disparities", "0:999:0.01"], ["GiB"]),
+        ("element size", ["zkey", str(stack_file), str(wrong_element), "--disparity", "1", "-o", out],
+         ["12x10", "48x48"]),
+        ("unwritable folder", ["solve", *v, "-o", str(a_file / "out.exr")], ["folder"]),
+        ("pattern without files", ["solve", str(tmp / "cam0.####.exr"), str(tmp / "cam1.####.exr"),
+                                   "-o", str(tmp / "s.####.exr")], ["no files", "cam0.####.exr"]),
+    ]
+
+
+CASE_NAMES = ["missing view", "different sizes", "one view", "truncated view", "nan in plate", "inf in plate",
+              "not a stack", "truncated stack", "min >= max", "too many planes", "element size",
+              "unwritable folder", "pattern without files"]
+
+
+@pytest.mark.parametrize("case", CASE_NAMES)
+def test_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path, views, stack_file, case):
+    cases = {name: (argv, words) for name, argv, words in _bad_cases(tmp_path, views, stack_file)}
+    argv, words = cases[case]
+    before = files_in(tmp_path)
+    status, out, err = run_cli(*argv)
+    assert status == 2, (case, err)
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith("vfxstereo: error: ")
+    assert "Traceback" not in err
+    for w in words:
+        assert w.lower() in lines[0].lower(), (case, lines[0])
+    assert files_in(tmp_path) == before  # nothing created, no temporary file left
+
+
+def test_failed_command_does_not_clobber_an_existing_output(tmp_path, views):
+    out = tmp_path / "keep.exr"
+    out.write_bytes(b"precious")
+    status, _, err = run_cli("solve", str(views[0]), str(tmp_path / "missing.exr"), "-o", out)
+    assert status == 2
+    assert out.read_bytes() == b"precious"
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Frame sequences
+
+
+def _write_sequence(folder: Path, scene, frames):
+    for f in frames:
+        for k, view in enumerate(scene.views):
+            exr.write_image(folder / f"cam{k}.{f:04d}.exr", view * (0.9 + 0.05 * (f - frames[0])))
+    return [str(folder / f"cam{k}.####.exr") for k in range(len(scene.views))]
+
+
+def test_sequence_interrupted_then_resumed(tmp_path, scene, monkeypatch):
+    """Ctrl-C on frame 2 of 3: frame 1 stays intact, nothing partial is left; a rerun does frames 2-3 only."""
+    from vfxstereo import solver
+
+    patterns = _write_sequence(tmp_path, scene, [1, 2, 3])
+    out = str(tmp_path / "out" / "stack.####.exr")
+    (tmp_path / "out").mkdir()
+    argv = ["solve", *patterns, "-o", out, "--frames", "1-3", "--disparities", "0:7", "--preset", "wta", "-q"]
+    real_solve = solver.solve
+    calls = []
+
+    def interrupted(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return real_solve(*args, **kwargs)
+
+    monkeypatch.setattr(solver, "solve", interrupted)
+    assert cli.main(argv) == 130
+    assert files_in(tmp_path / "out") == {"stack.0001.exr"}
+    first = tmp_path / "out" / "stack.0001.exr"
+    mtime = first.stat().st_mtime_ns
+    assert exr.read_stack(first).depth == 8
+
+    monkeypatch.setattr(solver, "solve", real_solve)
+    calls.clear()
+    assert cli.main(argv) == 0
+    assert files_in(tmp_path / "out") == {"stack.0001.exr", "stack.0002.exr", "stack.0003.exr"}
+    assert first.stat().st_mtime_ns == mtime  # the finished frame was not redone
+    s2 = exr.read_stack(tmp_path / "out" / "stack.0002.exr")
+    assert s2.metadata["frame"] == 2
+    # --overwrite redoes everything
+    assert cli.main(argv + ["--overwrite"]) == 0
+    assert first.stat().st_mtime_ns != mtime
+
+
+def test_sequence_in_parallel_jobs_and_steps(tmp_path, scene):
+    patterns = _write_sequence(tmp_path, scene, [1001, 1002, 1003])
+    out = tmp_path / "s.%04d.exr"
+    status, _, err = run_cli("solve", *patterns, "-o", out, "--frames", "1001-1003x2", "--jobs", "2",
+                             "--disparities", "0:7", "--preset", "wta", "-q")
+    assert status == 0, err
+    assert sorted(p.name for p in tmp_path.glob("s.*.exr")) == ["s.1001.exr", "s.1003.exr"]
+
+
+def test_sigint_during_a_sequence_leaves_only_whole_files(tmp_path, scene):
+    patterns = _write_sequence(tmp_path, scene, list(range(1, 7)))
+    out_dir = tmp_path / "out"
+    out_dir.mkdir()
+    proc = subprocess.Popen([sys.executable, "-m", "vfxstereo.cli", "solve", *patterns, "-o",
+                             str(out_dir / "s.####.exr"), "--disparities", "0:7", "--preset", "paper", "-q"],
+                            stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 120
+    while time.time() < deadline and not list(out_dir.glob("s.*.exr")) and proc.poll() is None:
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode in (0, 130), err
+    assert "Traceback" not in err
+    finished = sorted(out_dir.iterdir())
+    assert finished, "no frame finished before the interrupt"
+    for p in finished:
+        assert p.name.startswith("s.") and p.suffix == ".exr" and ".tmp" not in p.name
+        assert exr.read_stack(p).depth == 8
+    assert os.listdir(out_dir) == [p.name for p in finished]
