@@ -15,6 +15,7 @@ import argparse
 import functools
 import json
 import logging
+import multiprocessing
 import os
 import sys
 import time
@@ -227,7 +228,8 @@ def run_jobs(args, jobs: list[Job], work: Callable[[Job, object], None]) -> int:
         from tqdm import tqdm
 
         bar = tqdm(total=len(jobs), desc="frames", file=sys.stderr, disable=quiet, dynamic_ncols=True)
-        with ProcessPoolExecutor(max_workers=n_jobs) as pool:
+        # spawn, not fork: forking a process whose OpenImageIO/OpenMP threads hold locks can deadlock the child
+        with ProcessPoolExecutor(max_workers=n_jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
             futures = {pool.submit(_work_in_child, work, job): job for job in jobs}
             try:
                 for fut in as_completed(futures):
