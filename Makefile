@@ -10,21 +10,21 @@ export PIP_DISABLE_PIP_VERSION_CHECK := 1
 
 setup: $(STAMP) $(STAMP_BL)
 
-$(STAMP): requirements/core.txt pyproject.toml
+# $(call make-venv,DIR,REQUIREMENTS): create DIR if needed, install REQUIREMENTS and vfxstereo (editable)
+define make-venv
 	bash scripts/ensure-system-libs.sh
-	test -x $(VENV)/bin/python || $(PY) -m venv $(VENV)
-	$(VENV)/bin/python -m pip install -q --upgrade pip
-	$(VENV)/bin/python -m pip install -q -r requirements/core.txt
-	$(VENV)/bin/python -m pip install -q --no-deps -e .
-	touch $@
+	test -x $(1)/bin/python || $(PY) -m venv $(1)
+	$(1)/bin/python -m pip install -q --upgrade pip
+	$(1)/bin/python -m pip install -q -r $(2)
+	$(1)/bin/python -m pip install -q --no-deps -e .
+	touch $(1)/.installed
+endef
+
+$(STAMP): requirements/core.txt pyproject.toml
+	$(call make-venv,$(VENV),requirements/core.txt)
 
 $(STAMP_BL): requirements/blender.txt pyproject.toml
-	bash scripts/ensure-system-libs.sh
-	test -x $(VENV_BL)/bin/python || $(PY) -m venv $(VENV_BL)
-	$(VENV_BL)/bin/python -m pip install -q --upgrade pip
-	$(VENV_BL)/bin/python -m pip install -q -r requirements/blender.txt
-	$(VENV_BL)/bin/python -m pip install -q --no-deps -e .
-	touch $@
+	$(call make-venv,$(VENV_BL),requirements/blender.txt)
 
 demo: $(STAMP)
 	$(VENV)/bin/python samples/demo.py
