@@ -7,7 +7,16 @@ from vfxstereo.aggregate import aggregate
 from vfxstereo.errors import VfxStereoError
 from vfxstereo.geometry import plane_to_view
 from vfxstereo.samples import random_dot_stereogram
-from vfxstereo.select import WTA, Selection, best_competitor, local_variance, select
+from vfxstereo.select import (
+    WTA,
+    Selection,
+    best_competitor,
+    complete,
+    fill_undecided,
+    local_variance,
+    select,
+    select_behind,
+)
 from vfxstereo.sweep import matching_values, sweep
 from vfxstereo.warp import Warper
 
@@ -169,3 +178,92 @@ def test_eq2_limiting_only_the_neighbours_picks_fewer_wrong_winners():
     neighbours = sum(int(_fig6(seed, False)[-1].sum()) for seed in range(6))
     centre_too = sum(int(_fig6(seed, True)[-1].sum()) for seed in range(6))
     assert neighbours <= centre_too
+
+
+# ------------------------------------------------------------------------------------------------------
+# Beyond the paper: hidden layers and the completion of the initial volume
+
+
+def test_select_behind_only_considers_cells_behind_the_front_winner():
+    D = 5
+    ref = _flat((1, 3))
+    cost = np.full((D, 1, 3), 100.0, np.float32)
+    cost[3, 0, :] = 0.0  # the front everywhere
+    cost[1, 0, 0] = 2.0  # pixel 0: a clear surface behind the front
+    cost[4, 0, 1] = 1.0  # pixel 1: the only good cell is in front of the front -> nothing behind
+    cost[0, 0, 2], cost[2, 0, 2] = 2.0, 2.0  # pixel 2: two equally good cells behind -> not clear
+    mean = np.random.default_rng(0).random((D, 1, 3, 3)).astype(np.float32)
+    front = np.array([[3, 3, 3]])
+    hid = select_behind(mean, cost, front, ref)
+    np.testing.assert_array_equal(hid.winner[0], [1, -1, -1])
+    np.testing.assert_array_equal(hid.rgba[1, 0, 0], [*mean[1, 0, 0], 1.0])
+    assert hid.rgba[:, 0, 1:].sum() == 0 and hid.rgba[3].sum() == 0  # no front cells in it
+    assert select_behind(mean, cost, np.array([[-1, 3, 0]]), ref).winner[0].tolist() == [-1, -1, -1]
+    with pytest.raises(VfxStereoError):
+        select_behind(mean, cost, np.zeros((2, 3), int), ref)
+
+
+def test_fill_undecided_grows_the_farthest_neighbouring_plane():
+    w = np.array([[5, -1, -1, -1, 2],
+                  [5, -1, -1, -1, 2]])
+    # round 1 gives column 1 plane 5 and column 3 plane 2; round 2 gives column 2 the farther of (5, 2)
+    np.testing.assert_array_equal(fill_undecided(w), [[5, 5, 2, 2, 2], [5, 5, 2, 2, 2]])
+    assert fill_undecided(np.full((3, 3), -1)).tolist() == np.full((3, 3), -1).tolist()  # nothing to grow from
+    one = np.full((3, 4), -1)
+    one[0, 0] = 1
+    np.testing.assert_array_equal(fill_undecided(one), np.ones((3, 4)))
+
+
+def _two_plane_volume():
+    """D = 3, 1 x 6: background (plane 0) on columns 0-2, foreground (plane 2) on columns 3-5."""
+    D, H, W = 3, 1, 6
+    front = np.array([[0, 0, 0, 2, 2, 2]])
+    mean = np.zeros((D, H, W, 3), np.float32)
+    mean[0] = 0.2
+    mean[2] = 0.6
+    mean[2, 0, 3] = 0.4  # the edge pixel's mean is a blend of foreground and background
+    rgba = np.zeros((D, H, W, 4), np.float32)
+    for x, d in enumerate(front[0]):
+        rgba[d, 0, x] = [*mean[d, 0, x], 1.0]
+    return rgba, front, mean
+
+
+def test_complete_extends_the_background_behind_the_edge_and_softens_it():
+    rgba, front, mean = _two_plane_volume()
+    behind_mean = np.full_like(mean, 0.3)
+    behind_weight = np.zeros(mean.shape[:3], np.float32)
+    behind_weight[0, 0, 3] = 1.0  # a view sees the background behind column 3, not behind 4
+    out, filled = complete(rgba, front, mean, behind_mean=behind_mean, behind_weight=behind_weight, extend=1,
+                           soft_alpha=0.5)
+    np.testing.assert_array_equal(filled, front)
+    # step 2: plane 0 continues behind column 3 (seen: behind_mean) only; column 4 is 2 px from it
+    np.testing.assert_allclose(out[0, 0, 3], [0.3, 0.3, 0.3, 1.0])
+    assert out[0, 0, 4:].sum() == 0
+    # step 3: the foreground's edge cell is half transparent, with the interior's colour (0.6, not 0.4)
+    np.testing.assert_allclose(out[2, 0, 3], [0.3, 0.3, 0.3, 0.5])
+    np.testing.assert_array_equal(out[2, 0, 4:], rgba[2, 0, 4:])  # interior untouched
+    np.testing.assert_array_equal(out[0, 0, :3], rgba[0, 0, :3])  # the background's own edge is not softened
+    assert np.all(out[..., :3] <= out[..., 3:4] + 1e-7)  # premultiplied
+    # wider reach: column 4 gets the neighbour's colour (nobody sees behind it); column 5 is 3 px away
+    out2, _ = complete(rgba, front, mean, behind_mean=behind_mean, behind_weight=behind_weight, extend=2,
+                       soft_alpha=1.0)
+    np.testing.assert_allclose(out2[0, 0, 4], [0.2, 0.2, 0.2, 1.0])
+    assert out2[0, 0, 5].sum() == 0
+    np.testing.assert_array_equal(out2[2], rgba[2])  # soft_alpha = 1: no softening
+
+
+def test_complete_fills_undecided_pixels_from_the_sweep_mean_and_can_do_nothing():
+    rgba, front, mean = _two_plane_volume()
+    front = front.copy()
+    front[0, 2] = -1  # undecided between the two surfaces
+    rgba[0, 0, 2] = 0.0
+    out, filled = complete(rgba, front, mean, extend=0, soft_alpha=1.0)
+    assert filled[0, 2] == 0  # the farther neighbour
+    np.testing.assert_allclose(out[0, 0, 2], [0.2, 0.2, 0.2, 1.0])
+    same, unfilled = complete(rgba, front, mean, fill=False, extend=0, soft_alpha=1.0)
+    np.testing.assert_array_equal(same, rgba)
+    np.testing.assert_array_equal(unfilled, front)
+    with pytest.raises(VfxStereoError):
+        complete(rgba, front, mean, soft_alpha=0.0)
+    with pytest.raises(VfxStereoError):
+        complete(rgba, front[:, :3], mean)

@@ -9,7 +9,7 @@ from vfxstereo.errors import VfxStereoError
 from vfxstereo.geometry import Camera
 from vfxstereo.homography import rectified_rig_matrices
 from vfxstereo.io.color import linear_to_srgb
-from vfxstereo.sweep import COVERAGE_THRESHOLD, SweepStats, matching_values, sweep
+from vfxstereo.sweep import COVERAGE_THRESHOLD, SweepStats, lowpass_axes, matching_values, sweep
 from vfxstereo.warp import Warper
 
 POS = np.array([[-1.0, 0.5], [0.0, 0.0], [1.5, 0.0], [0.5, -1.0]])
@@ -204,3 +204,45 @@ def test_user_errors_raise_vfxstereo_error(rng):
         sweep(good, warper, visibility=[np.ones((2, *SHAPE))] * 2)
     with pytest.raises(VfxStereoError):
         sweep(good, warper, matching="hsv")
+
+
+# ------------------------------------------------------------------------------------------------------
+# Beyond the paper: the resampling-tolerant variance
+
+
+def test_tolerant_variance_is_the_smaller_of_the_plain_and_the_low_passed_views(rng):
+    from scipy import ndimage
+
+    cam = Camera.from_positions([-1.0, 0.0, 0.5, 1.5], reference=1)  # a 1-D rig: x only
+    views = rng.random((4, *SHAPE, 3)).astype(np.float32)
+    wp = Warper(cam, DISP, SHAPE)
+    plain = sweep(views, wp, matching="linear")
+    # [1 2 1] / 4 along rows, edges replicated, written out with scipy rather than the code under test
+    low = ndimage.correlate1d(views, [0.25, 0.5, 0.25], axis=2, mode="nearest").astype(np.float32)
+    blurred = sweep(low, wp, matching="linear")
+    tol = sweep(views, wp, matching="linear", tolerant=True)
+    np.testing.assert_allclose(tol.var, np.minimum(plain.var, blurred.var), rtol=1e-5, atol=1e-3)
+    np.testing.assert_array_equal(tol.mean, plain.mean)  # the mean (the volume's colour) is not filtered
+    np.testing.assert_array_equal(tol.weight, plain.weight)
+
+
+def test_tolerant_variance_forgives_half_pixel_resampling(rng):
+    """A random-dot plane at a half-pixel shift: bilinear resampling inflates its variance; tolerance not."""
+    texture = rng.random((12, 16, 1)).repeat(3, axis=-1).astype(np.float32)
+    cam = Camera.from_positions([-1.0, 0.0, 1.0], reference=1)
+    wp = Warper(cam, [0.0, 0.5, 1.5], (12, 16))
+    views = np.stack([wp.to_view(texture, k, 1) for k in range(3)])  # the scene: the texture on d = 0.5
+    inner = np.s_[:, 2:-2]
+    plain = sweep(views, wp, matching="linear").var[1][inner]
+    tol = sweep(views, wp, matching="linear", tolerant=True).var[1][inner]
+    assert np.median(tol) < 0.2 * np.median(plain)
+
+
+def test_lowpass_axes_follow_the_rig():
+    assert lowpass_axes(Camera.from_positions([0.0, 1.0, 2.0]), SHAPE) == (2,)
+    assert lowpass_axes(Camera.from_positions([[0.0, 0.0], [0.0, 1.0]]), SHAPE) == (1,)
+    assert lowpass_axes(Camera.from_positions(POS, reference=1), SHAPE) == (2, 1)
+    for pos in ([0.0, 1.0, 2.0], POS):
+        M, M0 = rectified_rig_matrices(pos, 0.0, SHAPE)
+        general = Camera(positions=pos, reference=0.0, matrices=M, M0=M0)
+        assert lowpass_axes(general, SHAPE) == lowpass_axes(Camera.from_positions(pos), SHAPE)

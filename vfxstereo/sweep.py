@@ -24,6 +24,16 @@ Decisions, stated once
 * **Too few votes.** Where the total weight ``sum_k w_k`` is below ``min_votes`` (2 by default: one view
   alone always has zero variance), the variance is ``+inf`` so the cell never wins. The mean is 0 where no
   view sees the cell.
+* **Resampling tolerance** (``tolerant=True``; not in the paper). Bilinear resampling at fractional shifts
+  blurs: at a half-pixel shift a view's sample of a correct cell is ``[1 2 1] / 4`` of the texture while the
+  reference's is sharp, and on a random-dot texture that alone costs a variance of ~0.4 of the texture's
+  (the paper's Section 7: "significant re-sampling errors" for the background "at an odd disparity"). A
+  tolerant sweep also computes the variance of the matching values low-passed by ``[1 2 1] / 4`` along the
+  directions the views move in (:func:`lowpass_axes`), and keeps the smaller of the two per cell. On the
+  Fig. 7 stimulus (3 seeds) the selection then decides 90 % of the pixels instead of 42 %; on the
+  integral-shift Fig. 6 stimulus the sharp variance is exact (zero at the truth) and nothing changes where
+  every view sees the surface. Low-passing alone (no minimum) also decides 87 % on Fig. 7 but blurs across
+  depth edges and makes 3-8 wrong choices on Fig. 6 at pixels every view sees. Twice the matching work.
 * **Memory.** One plane at a time: (K, H, W, 3) samples are held, never (D, K, H, W, 3).
 """
 
@@ -32,6 +42,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import ndimage
 
 from vfxstereo.errors import VfxStereoError
 from vfxstereo.io.color import linear_to_srgb
@@ -53,6 +64,9 @@ plain winner-take-all after Eq. (2) is a tie (16.5 % sRGB, 16.4 % linear), but w
 so a fixed threshold in 8-bit units is too loose in the shadows and too tight in the highlights."""
 
 _MIN_WEIGHT = 1e-6  # a resampled visibility below this is no vote at all
+
+LOWPASS = np.array([0.25, 0.5, 0.25])
+"""The ``[1 2 1] / 4`` filter of the tolerant sweep: what a half-pixel bilinear shift and back does to a view."""
 
 
 @dataclass
@@ -99,6 +113,40 @@ def matching_values(image: np.ndarray, matching: str = "srgb", scale: float = SC
     raise VfxStereoError(f"unknown matching encoding {matching!r}; choose one of: {', '.join(MATCHING)}")
 
 
+def lowpass_axes(camera, shape: tuple[int, int]) -> tuple[int, ...]:
+    """Image axes (1: rows, y; 2: columns, x; of a (K, H, W, C) stack) along which the views' samples move.
+
+    A rectified rig moves them along x where positions differ in x and along y where they differ in y.
+    For general (matrix) cameras, the image of the frame's corners and centre on the planes d = 0 and
+    d = 1 (Eq. A1) shows the direction; an axis counts when some point moves along it by more than 1e-3 of
+    the largest motion.
+    """
+    if not camera.is_general:
+        spread = np.ptp(camera.positions, axis=0)
+    else:
+        from vfxstereo.homography import plane_homography
+
+        h, w = shape
+        pts = np.array([[0, 0, 1], [w - 1, 0, 1], [0, h - 1, 1], [w - 1, h - 1, 1], [(w - 1) / 2, (h - 1) / 2, 1]],
+                       dtype=np.float64).T
+        motion = []
+        for M in camera.matrices:
+            a, b = (plane_homography(M, camera.M0, d) @ pts for d in (0.0, 1.0))
+            motion.append(np.abs(b[:2] / b[2] - a[:2] / a[2]).max(axis=1))
+        spread = np.max(motion, axis=0)
+    big = spread.max()
+    axes = tuple(ax for ax, s in ((2, spread[0]), (1, spread[1])) if s > 1e-3 * big)
+    return axes or (2,)
+
+
+def lowpass(values: np.ndarray, axes) -> np.ndarray:
+    """``values`` (K, H, W, C) filtered by :data:`LOWPASS` along each of ``axes`` (edges replicated), float32."""
+    out = np.asarray(values, dtype=np.float32)
+    for ax in axes:
+        out = ndimage.convolve1d(out, LOWPASS.astype(np.float32), axis=ax, mode="nearest")
+    return out
+
+
 def _check_inputs(views, warper, visibility):
     views = np.asarray(views, dtype=np.float32)
     if views.ndim != 4 or views.shape[-1] != 3:
@@ -124,7 +172,7 @@ def _check_inputs(views, warper, visibility):
 
 
 def sweep(views, warper, *, visibility=None, matching: str = "srgb", scale: float = SCALE,
-          min_votes: float = 2.0, progress: Progress | None = None) -> SweepStats:
+          min_votes: float = 2.0, tolerant: bool = False, progress: Progress | None = None) -> SweepStats:
     """Resample every view onto every plane (Eq. 1) and compute the weighted mean and variance per cell.
 
     Parameters
@@ -141,6 +189,9 @@ def sweep(views, warper, *, visibility=None, matching: str = "srgb", scale: floa
         Multiplier of the matching values (255: variances in 8-bit units squared).
     min_votes : float
         Cells whose total weight is below this get variance ``+inf``.
+    tolerant : bool
+        Resampling-tolerant variance: the smaller of the variance of the matching values and of the matching
+        values low-passed along the baseline (see the module notes).
     progress : callable, optional
         ``progress("sweep", plane_done, D)``.
 
@@ -152,13 +203,17 @@ def sweep(views, warper, *, visibility=None, matching: str = "srgb", scale: floa
     views, visibility = _check_inputs(views, warper, visibility)
     K, H, W = views.shape[:3]
     D = warper.D
-    separate = matching != "linear"
-    match = matching_values(views, matching, scale) if separate else None
+    separate = matching != "linear" or tolerant
+    matches = []  # matching values (K, H, W, 3) to take variances of; the first is unfiltered
+    if separate:
+        matches.append(matching_values(views, matching, scale))
+        if tolerant:
+            matches.append(lowpass(matches[0], lowpass_axes(warper.camera, warper.shape)))
     mean = np.zeros((D, H, W, 3), dtype=np.float32)
     var = np.empty((D, H, W), dtype=np.float32)
     weight = np.empty((D, H, W), dtype=np.float32)
     lin = np.empty((K, H, W, 3), dtype=np.float32)  # samples of one plane, scene-linear
-    mv = np.empty((K, H, W, 3), dtype=np.float32) if separate else lin  # matching values (before scaling)
+    mvs = [np.empty((K, H, W, 3), dtype=np.float32) for _ in matches]  # matching samples of one plane
     wk = np.empty((K, H, W), dtype=np.float32)
     for i in range(D):
         for k in range(K):
@@ -166,8 +221,8 @@ def sweep(views, warper, *, visibility=None, matching: str = "srgb", scale: floa
             if visibility is None:
                 wk[k] = valid
                 lin[k] = warper.to_plane(views[k], k, i)  # Eq. (1)
-                if separate:
-                    mv[k] = warper.to_plane(match[k], k, i)  # Eq. (1)
+                for mv, m in zip(mvs, matches, strict=True):
+                    mv[k] = warper.to_plane(m[k], k, i)  # Eq. (1)
             else:
                 vis = visibility[k][i]
                 v = warper.to_plane(vis, k, i)  # Eq. (1) applied to V_k
@@ -175,18 +230,22 @@ def sweep(views, warper, *, visibility=None, matching: str = "srgb", scale: floa
                 wk[k] = np.where(seen, v, 0.0)
                 inv = (1.0 / np.where(seen, v, 1.0))[..., None]
                 lin[k] = warper.to_plane(views[k] * vis[..., None], k, i) * inv  # Eq. (1) on c̄_k = c_k V_k
-                if separate:
-                    mv[k] = warper.to_plane(match[k] * vis[..., None], k, i) * inv
+                for mv, m in zip(mvs, matches, strict=True):
+                    mv[k] = warper.to_plane(m[k] * vis[..., None], k, i) * inv
         wsum = wk.sum(axis=0)
         safe = np.where(wsum > 0, wsum, 1.0).astype(np.float32)
         w4 = wk[..., None]
         mean[i] = (w4 * lin).sum(axis=0) / safe[..., None]  # weighted mean, scene-linear
         if separate:
-            mu = (w4 * mv).sum(axis=0) / safe[..., None]
-            dev = mv - mu
+            v2 = None
+            for mv in mvs:
+                mu = (w4 * mv).sum(axis=0) / safe[..., None]
+                dev = mv - mu
+                vk = (w4 * dev * dev).sum(axis=0).mean(axis=-1) / safe  # weighted population variance
+                v2 = vk if v2 is None else np.minimum(v2, vk)  # tolerant: the smaller of the two
         else:
             dev = (lin - mean[i]) * np.float32(scale)
-        v2 = (w4 * dev * dev).sum(axis=0).mean(axis=-1) / safe  # weighted population variance, channel mean
+            v2 = (w4 * dev * dev).sum(axis=0).mean(axis=-1) / safe  # weighted population variance, channel mean
         var[i] = np.where(wsum >= min_votes - 1e-6, v2, np.inf)
         weight[i] = wsum
         report(progress, "sweep", i + 1, D)

@@ -1,0 +1,225 @@
+"""Solver settings: every parameter of the paper in one dataclass, with the paper's values as defaults.
+
+Named presets reproduce the paper's configurations (Section 7):
+
+=========  =====================================================================================
+preset     what
+=========  =====================================================================================
+paper      the full method, the defaults of :class:`SolveConfig`: aggregation, thresholded
+           selection, visibility re-estimation with hidden layers, completion of the initial
+           volume, refinement with lambda = (50, 1, 10), sub-pixel disparity
+literal    the paper as written, for comparison: none of the extensions marked "beyond the paper"
+           below, lambda = (50, 1, 50) (Fig. 6(d)); the refinement's own additions (Huber rho2,
+           C1 warm-up, backtracking, see :mod:`vfxstereo.refine`) stay
+wta        Fig. 6(f): plain winner-take-all -- very large theta_min, no clarity test, no
+           occlusion reasoning, no refinement ("the same as Fig. 6(a) with a very large theta_min
+           and no occluded pixel removal": same matching and aggregation as ``paper``)
+fig6a      Fig. 6(a): aggregation + thresholded selection + visibility (with hidden layers), no
+           completion, no refinement: the stack is the selected 0/1 volume
+fig6b      Fig. 6(b): refinement with lambda = (1, 0, 0)
+fig6c      Fig. 6(c): lambda = (1, 1, 0)
+fig6d      Fig. 6(d): lambda = (50, 1, 50)
+fig6e      Fig. 6(e): lambda = (50, 1, 100)
+zkey       ``paper`` followed by edge matting (:mod:`vfxstereo.matting`): the best soft edges for z-keying
+=========  =====================================================================================
+
+fig6b-e differ from ``paper`` in their lambdas only.
+
+Beyond the paper (each a setting; ``literal`` turns them all off)
+----------------------------------------------------------------
+* ``tolerant_matching`` -- resampling-tolerant variance (:mod:`vfxstereo.sweep`).
+* ``reference_votes`` -- when the front surface is selected again after visibility (Section 5), the
+  reference view votes at every depth: it sees exactly one surface per pixel, the one the selection is
+  deciding, so the previous winner must not veto the others. With the paper's rule (the reference's
+  visibility from the previous pass applies too), a background cell behind a foreground edge gets
+  votes only from the views that see the background there, agrees perfectly, and wins the pixel from the
+  foreground: on the Fig. 6 stimulus (seeds 0-2) 88-103 wrong winners after re-estimation, 101 of them
+  at pixels every view sees (none before it). With the reference voting: none at pixels every view sees,
+  and the first pass's "too near" chance matches at occluded pixels are mostly corrected too (27-37
+  before; 0-2 after, seeds 0-7).
+* ``hidden_layers`` -- cells behind the front surface are selected as well
+  (:func:`vfxstereo.select.select_behind`).
+* ``fill_undecided``, ``extend_background``, ``soft_alpha`` -- completion of the selected volume
+  before refinement (:func:`vfxstereo.select.complete`).
+* ``lambdas = (50, 1, 10)`` -- with colours in [0, 1], C3 with lambda3 = lambda1 = 50 is not the "weak"
+  0/1 prior the paper describes: a mixed pixel whose true opacity is 0.6 gains about 1 in lambda1 C1 by
+  becoming transparent and pays about 12 in lambda3 C3 (at 8-bit colour units C1 would be 65025 times
+  larger). Measured with the rest of ``paper`` (seeds 0-4): with lambda3 = 50 (preset ``fig6d``) the
+  refinement leaves the Fig. 7 edge matte worse than the completed volume it starts from (mean alpha
+  error 0.18 against 0.16) and the worst view at 38.0 dB (RDS 41.9 dB); with lambda3 = 10 it ends at
+  0.09 with 42.4 dB (RDS 45.9 dB). lambda3 = 5 re-synthesises a little better still (~45 dB) with
+  slightly softer edges.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+from vfxstereo import aggregate as _aggregate
+from vfxstereo import refine as _refine
+from vfxstereo import select as _select
+from vfxstereo.errors import VfxStereoError
+
+LAMBDAS = (50.0, 1.0, 10.0)
+"""Default lambda_1, lambda_2, lambda_3 of Eq. (13) (see the module notes for lambda_3 = 10)."""
+
+
+@dataclass(frozen=True)
+class SolveConfig:
+    """All settings of :func:`vfxstereo.solve`; symbols as in Szeliski & Golland (1999).
+
+    Variances and thresholds are in 8-bit units squared (matching values scaled to 0..255), as in the
+    paper. The defaults are the stage modules' own constants, so there is one source for each number,
+    except ``lambdas`` (:data:`LAMBDAS`, see the module notes); they make the ``paper`` preset.
+    """
+
+    # Sweep (Eq. 1)
+    matching: str = "srgb"
+    """Values the variance is computed on: "srgb" (display-encoded, like the paper's 8-bit data) or "linear"."""
+    min_votes: float = 2.0
+    """Cells seen by fewer views (total visibility weight) get no variance and cannot win."""
+    tolerant_matching: bool = True
+    """Resampling-tolerant variance: also match on views low-passed along the baseline, keep the smaller
+    variance (beyond the paper; :mod:`vfxstereo.sweep`)."""
+    # Aggregation, Eq. (2)
+    aggregation: str = "szeliski1999"
+    """Aggregation method (:data:`vfxstereo.aggregate.AGGREGATION_METHODS`)."""
+    a: float = _aggregate.A
+    """Weight of the current variance (a in Eq. 2)."""
+    b: float = _aggregate.B
+    """Weight of each of the four neighbours' limited variances (b in Eq. 2)."""
+    c: float = _aggregate.C
+    """Weight of the original variance sigma^0 (c in Eq. 2)."""
+    sigma_max: float = _aggregate.SIGMA_MAX
+    """Limit of the robustified variance (sigma_max in Eq. 2), 8-bit units squared."""
+    aggregation_iterations: int = _aggregate.ITERATIONS
+    """Iterations of Eq. (2); the paper does not say how many."""
+    limit_centre: bool = False
+    """Also limit the centre term of Eq. (2) by sigma_max (the extracted text lost which terms carry the tilde)."""
+    # Selection (Section 4, footnote 6)
+    theta_min: float = _select.THETA_MIN
+    """Variance threshold floor theta_min, 8-bit units squared."""
+    theta_s: float = _select.THETA_S
+    """Slope of the threshold on the local 3x3 image variance (theta_s)."""
+    clear_ratio: float = _select.CLEAR_RATIO
+    """A winner is clear when its variance is below clear_ratio times the best non-adjacent competitor's."""
+    require_clear: bool = True
+    """Apply the clear-winner test (off for plain winner-take-all)."""
+    # Visibility (Section 5)
+    visibility_iterations: int = 1
+    """Re-estimation passes: re-project, compute V_k, recompute weighted statistics, select again."""
+    binary_visibility: bool = False
+    """Use the paper's simple visibility (d >= d_top) instead of the soft front-to-back product of Eq. (7)."""
+    reference_votes: bool = True
+    """After visibility, the reference view still votes at every depth of its own pixel when the front
+    surface is selected again (beyond the paper; see the module notes). Needs a virtual camera that is
+    one of the views."""
+    hidden_layers: bool = True
+    """After visibility, also select the cells behind the front surface (beyond the paper;
+    :func:`vfxstereo.select.select_behind`)."""
+    # Completion of the initial volume (beyond the paper; vfxstereo.select.complete)
+    fill_undecided: bool = True
+    """Give undecided pixels the farthest neighbouring surface before refinement."""
+    extend_background: int = 3
+    """Continue the background this many pixels behind the edges of nearer surfaces (0: off)."""
+    soft_alpha: float = 0.5
+    """Opacity given to the boundary cells of nearer surfaces before refinement (1: off)."""
+    # Refinement (Section 6, Appendix)
+    lambdas: tuple[float, float, float] = LAMBDAS
+    """lambda_1, lambda_2, lambda_3 of Eq. (13) (:data:`LAMBDAS`; the paper's Fig. 6(d) is (50, 1, 50))."""
+    rho1: str = _refine.RefineConfig.rho1
+    """Penalty of the re-synthesis error C1: "quadratic" or "huber"."""
+    rho2: str = _refine.RefineConfig.rho2
+    """Penalty of the smoothness term C2: "quadratic" or "huber" (Huber by default: see refine.py)."""
+    huber_scale: float = _refine.RefineConfig.huber_scale
+    """Huber threshold, in colour units (0..1)."""
+    premultiplied_smoothness: bool = _refine.RefineConfig.premultiplied_smoothness
+    """Use C2' (Eq. 12), the smoothness term for premultiplied colours."""
+    epsilon1: float = _refine.RefineConfig.epsilon1
+    """Step size epsilon_1 of Eq. (A2)."""
+    epsilon2: float = _refine.RefineConfig.epsilon2
+    """Stabiliser epsilon_2 of Eq. (A2)."""
+    refine_iterations: int = _refine.RefineConfig.iterations
+    """Preconditioned gradient descent steps; 0 skips refinement."""
+    backtrack: bool = _refine.RefineConfig.backtrack
+    """Retry a step that raised C at half the size (not in the paper; keeps C from rising)."""
+    warmup: float = _refine.RefineConfig.warmup
+    """Fraction of the refinement spent on C1 alone first (not in the paper; see refine.py)."""
+    border_weights: bool = False
+    """Give no weight in C1 to view pixels whose content lies outside the reference frame on some plane
+    (:func:`vfxstereo.solver.border_weights`). Off by default, measured: on the synthetic scenes (whose
+    back layer covers every view) it only removes data -- with the paper preset (seeds 0-2) the worst
+    Fig. 7 view drops from 42.3 to 22.2 dB (the unweighted edge columns are left unexplained) and the
+    worst RDS view from 45.9 to 43.2 dB; on Middlebury tsukuba (paper preset, full size) bad pixels are unchanged
+    (19.74 % against 19.72 %) and every view re-synthesises worse (34.3-40.4 dB against 36.0-41.4 dB,
+    also 8 px inside the frame: 36.1-40.2 dB against 38.8-41.7 dB)."""
+    # Sub-pixel disparity (Section 8.1)
+    subpixel: bool = True
+    """Report a sub-pixel disparity map by a parabola through the aggregated variance."""
+    # Edge matting (beyond the paper; vfxstereo.matting)
+    edge_matting: bool = False
+    """After refinement, re-solve colour and alpha of the soft-edge band per pixel against the background seen
+    by the unoccluded views (:func:`vfxstereo.matting.matte_edges`). On the hair/fur z-key benchmark it lifts
+    the edge band from 17.3 to 24.8 dB (hard matte from true depth: 23.3 dB); the ``zkey`` preset turns it on."""
+    extra: dict = field(default_factory=dict, compare=False)
+    """Free-form settings for alternative methods (registry entries); recorded in metadata."""
+
+    def replace(self, **changes) -> SolveConfig:
+        """A copy with ``changes`` applied; unknown names raise VfxStereoError."""
+        names = {f.name for f in dataclasses.fields(self)}
+        unknown = sorted(set(changes) - names)
+        if unknown:
+            raise VfxStereoError(f"unknown solver setting(s): {', '.join(unknown)}")
+        return dataclasses.replace(self, **changes)
+
+    def refine_config(self, *, white: float = 1.0) -> _refine.RefineConfig:
+        """The refinement stage's settings."""
+        return _refine.RefineConfig(
+            lambdas=self.lambdas, rho1=self.rho1, rho2=self.rho2, huber_scale=self.huber_scale,
+            premultiplied_smoothness=self.premultiplied_smoothness, epsilon1=self.epsilon1,
+            epsilon2=self.epsilon2, iterations=self.refine_iterations, backtrack=self.backtrack,
+            warmup=self.warmup, white=white)
+
+    def to_dict(self) -> dict:
+        """Plain-JSON form, recorded in the stack's metadata."""
+        d = dataclasses.asdict(self)
+        d["lambdas"] = list(self.lambdas)
+        return d
+
+    @classmethod
+    def preset(cls, name: str) -> SolveConfig:
+        """The named configuration (see the module docstring)."""
+        try:
+            changes = PRESETS[name]
+        except KeyError:
+            raise VfxStereoError(f"unknown preset {name!r}; choose one of: {', '.join(PRESETS)}") from None
+        return cls().replace(**changes)
+
+
+_NO_COMPLETION = {"fill_undecided": False, "extend_background": 0, "soft_alpha": 1.0}
+
+PRESETS: dict[str, dict] = {
+    "paper": {},
+    "literal": {
+        "tolerant_matching": False,
+        "reference_votes": False,
+        "hidden_layers": False,
+        **_NO_COMPLETION,
+        "lambdas": (50.0, 1.0, 50.0),
+    },
+    "wta": {
+        "theta_min": float("inf"),
+        "require_clear": False,
+        "visibility_iterations": 0,
+        "hidden_layers": False,
+        **_NO_COMPLETION,
+        "refine_iterations": 0,
+    },
+    "fig6a": {"refine_iterations": 0, **_NO_COMPLETION},
+    "fig6b": {"lambdas": (1.0, 0.0, 0.0)},
+    "fig6c": {"lambdas": (1.0, 1.0, 0.0)},
+    "fig6d": {"lambdas": (50.0, 1.0, 50.0)},
+    "fig6e": {"lambdas": (50.0, 1.0, 100.0)},
+    "zkey": {"edge_matting": True},
+}

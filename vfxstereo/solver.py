@@ -1,0 +1,290 @@
+"""``solve``: the stages of Szeliski & Golland (1999) in order, from K views to a LayerStack.
+
+1. geometry     -- :class:`vfxstereo.warp.Warper` (shift path or homographies, Eq. A1)
+2. sweep        -- :func:`vfxstereo.sweep.sweep` (Eq. 1), visibility-weighted once V_k is known
+3. aggregate    -- :func:`vfxstereo.aggregate.aggregate` (Eq. 2)
+4. select       -- :func:`vfxstereo.select.select` (thresholded winner-take-all, footnote 6)
+5. visibility   -- :mod:`vfxstereo.visibility` (Eqs. 5-8), then back to 2 (Section 5); from the second
+                   pass on, the front surface is selected on a sweep in which the reference view votes at
+                   every depth, and the hidden layers behind it (:func:`vfxstereo.select.select_behind`) on
+                   a sweep in which it does not
+6. complete     -- :func:`vfxstereo.select.complete`: fill undecided pixels, continue the background
+                   behind edges, soften the edges (the refinement's start)
+7. refine       -- :func:`vfxstereo.refine.refine` (Eqs. 9-13, A2)
+8. sub-pixel    -- :func:`vfxstereo.subpixel.subpixel_disparity` (Section 8.1)
+
+Steps marked in :mod:`vfxstereo.config` as beyond the paper are settings; the ``literal`` preset turns
+them off. What each one buys, measured on the synthetic scenes, is in :mod:`vfxstereo.config`,
+:mod:`vfxstereo.sweep` and :mod:`vfxstereo.select`.
+
+Results on the synthetic scenes of :mod:`vfxstereo.samples` (64 x 64, K = 5, seeds 0-4) are asserted by
+``tests/test_solver.py`` and tabulated in its docstring.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from vfxstereo.config import SolveConfig
+from vfxstereo.errors import VfxStereoError
+from vfxstereo.geometry import Camera
+from vfxstereo.progress import Progress, report
+from vfxstereo.stack import LayerStack
+from vfxstereo.warp import Warper
+
+# Bytes held per (x, y, d) cell while solving: selected, initial and refined RGBA volumes, mean colour,
+# variance, aggregated variance and vote weight of the front and hidden sweeps, gradient and Hessian of the
+# refinement (3 * 4 + 2 * (3 + 1 + 1 + 1) + 4 + 4 float32), and per view the visibility volume and one warped
+# RGBA layer stack during refinement (1 + 4 float32 per view).
+_BYTES_PER_CELL = 4 * 32
+_BYTES_PER_CELL_PER_VIEW = 4 * 5
+
+
+def memory_needed(shape: tuple[int, int], n_planes: int, n_views: int) -> int:
+    """Estimated peak bytes of :func:`solve` for views of ``shape`` (H, W)."""
+    cells = int(shape[0]) * int(shape[1]) * int(n_planes)
+    return cells * (_BYTES_PER_CELL + _BYTES_PER_CELL_PER_VIEW * int(n_views))
+
+
+def available_memory() -> int:
+    """Bytes the machine can give us now (MemAvailable), or physical memory where /proc is missing."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    import os
+
+    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+
+
+def check_memory(shape: tuple[int, int], n_planes: int, n_views: int) -> None:
+    """Raise VfxStereoError, saying how much is needed, when a solve cannot fit in memory."""
+    need = memory_needed(shape, n_planes, n_views)
+    have = available_memory()
+    if need > 0.8 * have:
+        raise VfxStereoError(
+            f"{n_planes} disparity planes at {shape[1]}x{shape[0]} with {n_views} views need about "
+            f"{need / 2**30:.1f} GiB, but only {have / 2**30:.1f} GiB is available; use fewer planes "
+            f"(a coarser --disparities step or a narrower range) or smaller plates"
+        )
+
+
+@dataclass
+class SolveResult:
+    """Everything :func:`solve` computed, for callers that want more than the stack."""
+
+    stack: LayerStack
+    disparity: np.ndarray
+    """(H, W) float32 sub-pixel disparity of the reference camera (NaN where undecided)."""
+    winners: np.ndarray
+    """(H, W) int index of the front plane of the last selection (-1 = undecided)."""
+    initial: np.ndarray
+    """(D, H, W, 4) the refinement's start: the selected volume after completion (premultiplied)."""
+    selected: np.ndarray | None = None
+    """(D, H, W, 4) the volume as the last selection made it (front and hidden cells, opacity 0/1)."""
+    hidden: np.ndarray | None = None
+    """(H, W) int index of the hidden plane selected behind the front one (-1 = none), or None."""
+    timings: dict = field(default_factory=dict)
+    """Seconds per stage."""
+
+
+def _check_views(views) -> np.ndarray:
+    v = np.asarray(views)
+    if v.ndim == 3:
+        v = v[..., None]
+    if v.ndim != 4:
+        raise VfxStereoError(f"views must be (K, H, W, 3) images, got shape {v.shape}")
+    if v.shape[0] < 2:
+        raise VfxStereoError(f"solving needs at least two views, got {v.shape[0]}")
+    if v.shape[-1] == 1:
+        v = np.repeat(v, 3, axis=-1)
+    if v.shape[-1] != 3:
+        raise VfxStereoError(f"views must have 3 colour channels, got {v.shape[-1]}")
+    if not np.issubdtype(v.dtype, np.floating):
+        raise VfxStereoError("views must be scene-linear floating-point images (decode them with io.plates)")
+    v = np.ascontiguousarray(v, dtype=np.float32)
+    bad = ~np.isfinite(v)
+    if bad.any():
+        k = int(np.argmax(bad.reshape(len(v), -1).any(axis=1)))
+        raise VfxStereoError(f"view {k} holds {int(bad[k].any(axis=-1).sum())} NaN or infinite pixels")
+    return v
+
+
+def _check_disparities(disparities) -> np.ndarray:
+    d = np.asarray(disparities, dtype=np.float64).reshape(-1)
+    if d.size < 2:
+        raise VfxStereoError(f"solving needs at least two disparity planes, got {d.size}")
+    if not np.all(np.isfinite(d)) or not np.all(np.diff(d) > 0):
+        raise VfxStereoError("disparities must be finite and strictly increasing")
+    return d
+
+
+def _reference_index(camera: Camera) -> int:
+    """The view the virtual camera coincides with, or the nearest one."""
+    if camera.reference_index is not None:
+        return int(camera.reference_index)
+    return int(np.argmin(np.linalg.norm(camera.positions - camera.reference, axis=1)))
+
+
+def border_weights(warper: Warper) -> np.ndarray:
+    """w_k(u, v) of Eq. (9): 1 where view k's pixel lies inside the reference frame on every plane, else 0.
+
+    Near the frame edge a view sees scene content that no plane of the reference camera holds; asking C1 to
+    explain it only drags colour and opacity in from the edge.
+    """
+    h, w = warper.shape
+    ones = np.ones((h, w), dtype=np.float32)
+    weights = np.ones((warper.K, h, w), dtype=np.float32)
+    for k in range(warper.K):
+        for i in range(warper.D):
+            np.minimum(weights[k], warper.to_view(ones, k, i), out=weights[k])
+    return (weights > 1.0 - 1e-6).astype(np.float32)
+
+
+def solve(views, *, positions=None, reference: int | None = None, disparities, config: SolveConfig | None = None,
+          progress: Progress | None = None, camera: Camera | None = None, return_details: bool = False):
+    """Recover a stack of premultiplied RGBA layers from K views (Szeliski & Golland 1999, all stages).
+
+    Parameters
+    ----------
+    views : ndarray of shape (K, H, W, 3)
+        Scene-linear float views, ordered as ``positions``.
+    positions : sequence of float or of (x, y) pairs, optional
+        Camera positions along the baseline in view steps; default ``0 .. K-1``.
+    reference : int, optional
+        Index of the view the virtual camera sits at; default the middle view.
+    disparities : array_like of shape (D,)
+        Increasing disparities of the planes, px per view step.
+    config : SolveConfig, optional
+        Settings; default the ``paper`` preset.
+    progress : callable, optional
+        ``progress(stage, done, total)`` for every stage and iteration; stages ``"passes"``, ``"sweep"``
+        (per plane), ``"aggregate"``, ``"select"``, ``"visibility"``, ``"complete"``, ``"refine"`` (per
+        step) and ``"subpixel"``, as far as the configuration runs them.
+    camera : Camera, optional
+        A full camera description (general matrices, focal, baseline); replaces ``positions``/``reference``.
+    return_details : bool
+        Return a :class:`SolveResult` (stack, sub-pixel disparity, front and hidden winners, selected and
+        initial volumes, timings).
+
+    Returns
+    -------
+    LayerStack, or SolveResult with ``return_details``.
+    """
+    from vfxstereo import aggregate, refine, select, subpixel, sweep, visibility
+
+    config = config or SolveConfig()
+    views = _check_views(views)
+    disparities = _check_disparities(disparities)
+    n_views, h, w = views.shape[:3]
+    if camera is None:
+        pos = list(range(n_views)) if positions is None else positions
+        if len(pos) != n_views:
+            raise VfxStereoError(f"{n_views} views need {n_views} positions, got {len(pos)}")
+        camera = Camera.from_positions(pos, reference)
+    elif camera.K != n_views:
+        raise VfxStereoError(f"the camera describes {camera.K} views, but {n_views} were given")
+    check_memory((h, w), len(disparities), n_views)
+    warper = Warper(camera, disparities, (h, w))
+    ref = views[_reference_index(camera)]
+    ref_view = camera.reference_index  # the view the virtual camera is, if any
+    white = max(1.0, float(views.max()))
+    timings: dict[str, float] = {}
+
+    def timed(stage, fn, *args, **kwargs):
+        t0 = time.perf_counter()
+        out = fn(*args, **kwargs)
+        timings[stage] = timings.get(stage, 0.0) + time.perf_counter() - t0
+        return out
+
+    agg_settings = ({"a": config.a, "b": config.b, "c": config.c, "sigma_max": config.sigma_max,
+                     "iterations": config.aggregation_iterations, "limit_centre": config.limit_centre,
+                     "progress": progress}
+                    if config.aggregation == "szeliski1999" else dict(config.extra.get("aggregation", {})))
+    sel_settings = {"theta_min": config.theta_min, "theta_s": config.theta_s,
+                    "require_clear": config.require_clear, "clear_ratio": config.clear_ratio,
+                    "matching": config.matching}
+
+    def statistics(vis):
+        stats = timed("sweep", sweep.sweep, views, warper, visibility=vis, matching=config.matching,
+                      min_votes=config.min_votes, tolerant=config.tolerant_matching, progress=progress)
+        return stats, timed("aggregate", aggregate.aggregate, stats.var, method=config.aggregation,
+                            **agg_settings)
+
+    vis = None
+    hidden = hstats = None
+    passes = int(config.visibility_iterations) + 1
+    for p in range(passes):
+        report(progress, "passes", p, passes)
+        front_vis = vis
+        if vis is not None and config.reference_votes and ref_view is not None:
+            front_vis = list(vis)  # the reference votes at every depth of its own pixel (see config)
+            front_vis[ref_view] = np.ones_like(vis[ref_view])
+        stats, cost = statistics(front_vis)
+        sel = timed("select", select.select, stats.mean, cost, ref, **sel_settings)
+        report(progress, "select", 1, 1)
+        rgba = sel.rgba
+        hidden = None
+        if vis is not None and config.hidden_layers:
+            if front_vis is vis:  # the paper's weighting already keeps the reference out of hidden cells
+                hstats, hcost = stats, cost
+            else:
+                hid_vis = list(vis)
+                hid_vis[ref_view] = np.zeros_like(vis[ref_view])  # the reference cannot see behind its front
+                hstats, hcost = statistics(hid_vis)
+            hsel = timed("select", select.select_behind, hstats.mean, hcost, sel.winner, ref, **sel_settings)
+            hidden = hsel.winner
+            rgba = rgba + hsel.rgba  # disjoint cells: hidden ones lie strictly behind the front winner
+        if p < passes - 1:  # Section 5: visibility by re-projection feeds the next sweep
+            vis, _ = timed("visibility", visibility.view_visibilities, rgba, warper,
+                           simple=config.binary_visibility)
+            report(progress, "visibility", p + 1, passes - 1)
+    report(progress, "passes", passes, passes)
+    selected = rgba
+    initial = selected
+    if config.fill_undecided or config.extend_background > 0 or config.soft_alpha < 1.0:
+        initial, _ = timed("complete", select.complete, selected, sel.winner, stats.mean,
+                           behind_mean=None if hidden is None else hstats.mean,
+                           behind_weight=None if hidden is None else hstats.weight,
+                           fill=config.fill_undecided, extend=int(config.extend_background),
+                           soft_alpha=float(config.soft_alpha))
+        report(progress, "complete", 1, 1)
+    rgba = initial
+    if config.refine_iterations > 0 and any(config.lambdas):
+        weights = timed("refine", border_weights, warper) if config.border_weights else None
+        rgba = timed("refine", refine.refine, initial, disparities, views, warper,
+                     config.refine_config(white=white), view_weights=weights, progress=progress)
+    if config.edge_matting:  # beyond the paper: per-pixel (colour, alpha) of the soft-edge band
+        from vfxstereo import matting
+
+        rgba = timed("matting", matting.matte_edges, rgba, disparities, views, warper, white=white,
+                     progress=progress)
+
+    stack = LayerStack(rgba, disparities, camera, metadata={
+        "solver": "szeliski-golland-1999",
+        "settings": config.to_dict(),
+        "selected_fraction": float(sel.fraction),
+        "hidden_cells": 0 if hidden is None else int((hidden >= 0).sum()),
+        "colorspace": "scene-linear Rec.709",
+    }, white=white)
+    # Reported disparity: the selection's winner, or where it left the column undecided, the front-most
+    # opaque layer of the refined stack; then the parabola of Section 8.1 through the aggregated variance.
+    index = sel.winner.copy()
+    front = stack.disparity_map(0.5)
+    fill = (index < 0) & np.isfinite(front)
+    index[fill] = np.searchsorted(disparities, front[fill])
+    if config.subpixel:
+        disparity = timed("subpixel", subpixel.subpixel_disparity, cost, disparities, index)
+        report(progress, "subpixel", 1, 1)
+    else:
+        disparity = np.where(index >= 0, disparities[np.maximum(index, 0)], np.nan).astype(np.float32)
+    if not return_details:
+        return stack
+    return SolveResult(stack=stack, disparity=disparity, winners=sel.winner, initial=initial, selected=selected,
+                       hidden=hidden, timings=timings)
