@@ -19,7 +19,11 @@ Two elements: a full-frame checker card (every band pixel has the element behind
 decides) and :func:`vfxstereo.samples.cg_element`, an anti-aliased checker card centred in the frame
 (half the band has plate behind it, as in a real shot).
 
-Run ``python benchmarks/zkey_edges.py [--quick] [--images GT04 ...] [--presets paper fig6a ...]``.
+With ``--matting`` the report gains a section on :func:`vfxstereo.matting.matte_edges` (edge matting, past
+the paper): the band PSNR of (a) after matting the solved stack, and of the ground-truth stack with its
+foreground alpha hardened at 0.5 before and after matting (full-frame card).
+
+Run ``python benchmarks/zkey_edges.py [--quick] [--matting] [--images GT04 ...] [--presets paper fig6a ...]``.
 """
 
 from __future__ import annotations
@@ -30,13 +34,14 @@ import sys
 import common  # benchmarks/ is on sys.path when run as a script
 import numpy as np
 
-from vfxstereo import SolveConfig, composite, samples, solve
+from vfxstereo import SolveConfig, composite, matting, samples, solve
+from vfxstereo.stack import LayerStack
 
 IMAGES = ("GT04", "GT26", "GT25", "GT16", "GT08", "GT03")
 """The six alpha-matting images with the largest share of fractional alpha (0.02 < alpha < 0.98) in their
 foreground: hair and fur."""
-PRESETS = ("paper", "fig6a", "fig6b", "fig6c", "fig6e", "wta")
-"""Solver presets tried (fig6d is the same as paper)."""
+PRESETS = ("zkey", "paper", "literal", "fig6a", "wta")
+"""Solver presets tried: zkey (paper + edge matting), the paper preset, the paper as written, Fig. 6(a), WTA."""
 SCALE = 0.4
 """Size of the scenes relative to the matting set's 800 px images (about 320 x 225)."""
 FG_DISPARITY, BG_DISPARITY, ELEMENT_DISPARITY = 4.0, 0.0, 2.0
@@ -61,6 +66,17 @@ def hard_matte_comp(plate: np.ndarray, gt_disparity: np.ndarray, element: np.nda
     """(b): the plate where the true front-most disparity is > D, else the element over the plate (RGB)."""
     behind = composite.over(element, np.concatenate([plate, np.ones(plate.shape[:2] + (1,), np.float32)], -1))
     return np.where((gt_disparity > D)[..., None], plate, behind[..., :3])
+
+
+def hardened(sample) -> LayerStack:
+    """The ground-truth stack with every layer's alpha thresholded at 0.5 (colour: straight colour times it)."""
+    rgba = sample.stack.rgba.copy()
+    a = rgba[..., 3]
+    straight = rgba[..., :3] / np.maximum(a, 1e-6)[..., None]
+    hard = (a >= 0.5).astype(np.float32)
+    rgba[..., :3] = straight * hard[..., None]
+    rgba[..., 3] = hard
+    return LayerStack(rgba, sample.stack.disparities, sample.stack.camera, white=sample.stack.white)
 
 
 def _crop_window(band: np.ndarray, size=(96, 128)) -> tuple[slice, slice]:
@@ -105,7 +121,7 @@ def figure(path, gt, a, b, band, title) -> None:
 
 
 def run(*, quick: bool = False, images=None, presets=None, scale=None, refine_iterations=None,
-        verbose: bool = True) -> str:
+        verbose: bool = True, edge_matting: bool = False) -> str:
     """Every scene with every preset; the Markdown report."""
     images = tuple(images or (QUICK["images"] if quick else IMAGES))
     presets = tuple(presets or (QUICK["presets"] if quick else PRESETS))
@@ -114,6 +130,7 @@ def run(*, quick: bool = False, images=None, presets=None, scale=None, refine_it
         refine_iterations = QUICK["refine_iterations"]
     D = ELEMENT_DISPARITY
     rows: list[dict] = []  # one per (image, preset, element)
+    mrows: list[dict] = []  # edge matting: one per (image, preset) and per image for the hardened GT
     comps: dict[tuple[str, str], tuple] = {}  # (image, preset) -> (gt, a, b, band), full-frame card
     sizes = []
     for image in images:
@@ -126,6 +143,20 @@ def run(*, quick: bool = False, images=None, presets=None, scale=None, refine_it
         gt_hold = composite.holdout(sample.stack, D)
         hard_hold = (gt_disp > D).astype(np.float32)
         elems = elements(sample.shape)
+        if edge_matting:
+            full = elems[PRIMARY]
+            gt = composite.insert(sample.stack, full, disparity=D)[..., :3]
+            hard = hardened(sample)
+            with common.Stopwatch() as sw:
+                hard_m = matting.matte_stack(hard, sample.views)
+            before = composite.insert(hard, full, disparity=D)[..., :3]
+            after = composite.insert(hard_m, full, disparity=D)[..., :3]
+            b = hard_matte_comp(plate, gt_disp, full, D)
+            mrows.append({"image": image, "start": "GT, alpha hardened", "before": common.psnr(before, gt, band),
+                          "after": common.psnr(after, gt, band), "b_band": common.psnr(b, gt, band),
+                          "alpha_before": float(np.abs(composite.holdout(hard, D) - gt_hold)[band].mean()),
+                          "alpha_after": float(np.abs(composite.holdout(hard_m, D) - gt_hold)[band].mean()),
+                          "seconds": sw.seconds})
         for preset in presets:
             config = SolveConfig.preset(preset)
             if refine_iterations is not None and config.refine_iterations > 0:
@@ -146,11 +177,29 @@ def run(*, quick: bool = False, images=None, presets=None, scale=None, refine_it
                              "alpha_a": alpha_a, "alpha_b": alpha_b})
                 if ename == PRIMARY:
                     comps[(image, preset)] = (gt, a, b, band)
+            if edge_matting:
+                full = elems[PRIMARY]
+                with common.Stopwatch() as msw:
+                    mstack = matting.matte_stack(stack, sample.views)
+                gt = composite.insert(sample.stack, full, disparity=D)[..., :3]
+                after = composite.insert(mstack, full, disparity=D)[..., :3]
+                r = next(r for r in rows[::-1] if r["preset"] == preset and r["element"] == PRIMARY
+                         and r["image"] == image)
+                mrows.append({"image": image, "start": f"solved `{preset}`", "before": r["a_band"],
+                              "after": common.psnr(after, gt, band), "b_band": r["b_band"],
+                              "alpha_before": alpha_a,
+                              "alpha_after": float(np.abs(composite.holdout(mstack, D) - gt_hold)[band].mean()),
+                              "seconds": msw.seconds})
+                if verbose:
+                    print(f"  zkey {image}/{preset}: edge matting band PSNR {r['a_band']:.2f} -> "
+                          f"{mrows[-1]['after']:.2f} dB, {msw.seconds:.1f} s", file=sys.stderr, flush=True)
             if verbose:
                 r = rows[-len(elems)]
                 print(f"  zkey {image}/{preset}: band PSNR (a) {r['a_band']:.2f} dB vs (b) {r['b_band']:.2f} dB, "
                       f"{sw.seconds:.1f} s", file=sys.stderr, flush=True)
     text, best = report(rows, images, presets, sizes, scale, refine_iterations, quick)
+    if mrows:
+        text += matting_report(mrows)
     tag = "_quick" if quick else ""
     for image in images:
         gt, a, b, band = comps[(image, best)]
@@ -219,6 +268,28 @@ def report(rows, images, presets, sizes, scale, refine_iterations, quick) -> tup
     return "".join(parts), best
 
 
+def matting_report(mrows) -> str:
+    """The edge-matting section: per start and scene, band PSNR before and after matte_edges."""
+    table = []
+    for start in dict.fromkeys(r["start"] for r in mrows):
+        rs = [r for r in mrows if r["start"] == start]
+        for r in rs:
+            table.append([start, r["image"], r["before"], r["after"], r["b_band"], r["after"] - r["b_band"],
+                          r["alpha_before"], r["alpha_after"], r["seconds"]])
+        table.append([start, "**mean**", _mean(rs, "before"), _mean(rs, "after"), _mean(rs, "b_band"),
+                      _mean(rs, "after") - _mean(rs, "b_band"), _mean(rs, "alpha_before"),
+                      _mean(rs, "alpha_after"), _mean(rs, "seconds")])
+    head = ["start", "scene", "band before dB", "band after dB", "band (b) dB", "after-(b) dB",
+            "alpha MAE before", "alpha MAE after", "matting s"]
+    return common.section(
+        f"Edge matting (vfxstereo.matting.matte_edges, defaults), {PRIMARY}",
+        common.markdown_table(head, table)
+        + "\n\nBand PSNR of the z-key comp before and after `matting.matte_stack` on the start stack; (b) = the "
+          "hard matte cut from the true depth. 'GT, alpha hardened' = the ground-truth stack with alpha "
+          "thresholded at 0.5 (colour = straight colour x hardened alpha); the background is re-estimated "
+          "from the views either way.\n")
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="two scenes, smaller, paper and wta only")
@@ -227,9 +298,11 @@ def main(argv=None) -> int:
     parser.add_argument("--scale", type=float, default=None, help=f"scene scale (default {SCALE})")
     parser.add_argument("--refine-iterations", type=int, default=None,
                         help="override the refinement iterations of the presets that refine")
+    parser.add_argument("--matting", action="store_true",
+                        help="also report edge matting (vfxstereo.matting) on the solved and hardened-GT stacks")
     args = parser.parse_args(argv)
     print(run(quick=args.quick, images=args.images, presets=args.presets, scale=args.scale,
-              refine_iterations=args.refine_iterations))
+              refine_iterations=args.refine_iterations, edge_matting=args.matting))
     return 0
 
 

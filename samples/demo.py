@@ -41,7 +41,7 @@ def main() -> int:
     d_lo, d_hi = meta["disparities"][0], meta["disparities"][-1]
     element_d = meta["element_disparity"]
     t0 = time.perf_counter()
-    run("solve", "--dataset", str(SAMPLE), "--disparities", f"{d_lo:g}:{d_hi:g}", "--preset", "paper",
+    run("solve", "--dataset", str(SAMPLE), "--disparities", f"{d_lo:g}:{d_hi:g}", "--preset", "zkey",
         "-o", str(OUT / "stack.exr"), "--deep-out", str(OUT / "stack_deep.exr"),
         "--disparity-out", str(OUT / "disparity.exr"), "--previews", str(OUT), "--overwrite")
     run("zkey", str(OUT / "stack.exr"), str(SAMPLE / meta["element"]), "--disparity", f"{element_d:g}",

@@ -553,7 +553,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--disparities", help="MIN:MAX[:STEP] in pixels per unit of position, inclusive (default "
                                          "0 to 5%% of the image width, step 1)")
     s.add_argument("--preset", default="paper",
-                   help="paper (default), wta, fig6a..fig6e (the paper's configurations)")
+                   help="paper (default), zkey (paper + edge matting: best soft edges), literal (the paper "
+                        "as written), wta, fig6a..fig6e (the paper's configurations)")
     s.add_argument("--dataset", help="folder with a dataset.json (views, positions, reference)")
     s.add_argument("--disparity-out", help="EXR with the sub-pixel disparity of the reference camera (channel Z)")
     s.add_argument("--deep-out", help="deep EXR of the stack (R,G,B,A,Z,ZBack)")
