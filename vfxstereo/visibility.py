@@ -200,18 +200,21 @@ def view_visibilities(rgba: np.ndarray, warper, *, simple: bool = False,
     views : ndarray of shape (K, H, W, 4)
         Re-synthesised premultiplied views ``c~_k`` (Eqs. 6, 8).
     """
+    vis = []
+    views = np.empty((warper.K,) + np.shape(rgba)[1:], dtype=np.asarray(rgba).dtype)
+    for k, warped, V in _per_view(rgba, warper):
+        views[k] = composite(warped, V)  # Eq. (8) == Eq. (6)
+        vis.append(simple_visibility(warped[..., 3], threshold=threshold) if simple else V)
+    return vis, views
+
+
+def _per_view(rgba: np.ndarray, warper):
+    """Yield ``(k, warped layers, V_k)`` for every view; the warped buffer is reused between views."""
     rgba = _check_warped(rgba, name="rgba")
     buf = np.empty_like(rgba)
-    vis = []
-    views = np.empty((warper.K,) + rgba.shape[1:], dtype=rgba.dtype)
     for k in range(warper.K):
         warped = reproject(rgba, warper, k, out=buf)
-        V = visibility(warped[..., 3])  # Eq. (7)
-        views[k] = composite(warped, V)  # Eq. (8) == Eq. (6)
-        if simple:
-            V = simple_visibility(warped[..., 3], threshold=threshold)
-        vis.append(V)
-    return vis, views
+        yield k, warped, visibility(warped[..., 3])  # Eq. (7)
 
 
 def resynthesise(rgba: np.ndarray, warper) -> np.ndarray:
@@ -228,10 +231,7 @@ def resynthesise(rgba: np.ndarray, warper) -> np.ndarray:
     -------
     ndarray of shape (K, H, W, 4), premultiplied, the dtype of ``rgba``.
     """
-    rgba = _check_warped(rgba, name="rgba")
-    buf = np.empty_like(rgba)
-    views = np.empty((warper.K,) + rgba.shape[1:], dtype=rgba.dtype)
-    for k in range(warper.K):
-        warped = reproject(rgba, warper, k, out=buf)
-        views[k] = composite(warped, visibility(warped[..., 3]))  # Eq. (8) == Eq. (6)
+    views = np.empty((warper.K,) + np.shape(rgba)[1:], dtype=np.asarray(rgba).dtype)
+    for k, warped, V in _per_view(rgba, warper):
+        views[k] = composite(warped, V)  # Eq. (8) == Eq. (6)
     return views
