@@ -66,6 +66,8 @@ import json
 import math
 import os
 import struct
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -182,6 +184,29 @@ def _write_failed(path, thing) -> VfxStereoError:
     return VfxStereoError(f"cannot write {path}: {msg}")
 
 
+@contextmanager
+def open_output(path, spec, *, before_rename=None) -> Iterator:
+    """An opened OIIO ``ImageOutput`` on a temporary name beside ``path``, renamed into place on success.
+
+    Every writer of the project goes through here: a format OIIO cannot write, a failed open or an
+    exception inside the block leaves no file and does not touch an existing ``path``. ``before_rename``
+    (``callable(tmp_path)``) runs after the output is closed and before the rename.
+    """
+    oiio = _oiio()
+    with atomic_output(path) as tmp:
+        out = oiio.ImageOutput.create(os.fspath(tmp))
+        if out is None:
+            raise VfxStereoError(f"cannot write {path}: {_one_line(oiio.geterror()) or 'unknown format'}")
+        try:
+            if not out.open(os.fspath(tmp), spec):
+                raise _write_failed(path, out)
+            yield out
+        finally:
+            out.close()
+        if before_rename is not None:
+            before_rename(tmp)
+
+
 # ---------------------------------------------------------------------------------------------------------
 # Opening files for reading
 
@@ -285,22 +310,14 @@ def write_stack(path, stack: LayerStack, *, half: bool = True, compression: str 
     layers = {n: float(d) for n, d in zip(names, stack.disparities, strict=True)}
     spec.attribute("vfxstereo/layers", _to_json(layers, "layer map"))
     path = Path(path)
-    with atomic_output(path) as tmp:
-        out = oiio.ImageOutput.create(os.fspath(tmp))
-        if out is None:
-            raise _write_failed(path, None)
-        try:
-            if not out.open(os.fspath(tmp), spec):
+    with open_output(path, spec) as out:
+        for y0 in range(0, H, _ROWS_PER_CHUNK):
+            y1 = min(H, y0 + _ROWS_PER_CHUNK)
+            # (D, h, W, 4) -> (h, W, D*4): channel 4*i + c is layer i, component c
+            strip = np.ascontiguousarray(stack.rgba[:, y0:y1].transpose(1, 2, 0, 3))
+            strip = strip.reshape(y1 - y0, W, 4 * D)
+            if not out.write_scanlines(y0, y1, 0, strip):
                 raise _write_failed(path, out)
-            for y0 in range(0, H, _ROWS_PER_CHUNK):
-                y1 = min(H, y0 + _ROWS_PER_CHUNK)
-                # (D, h, W, 4) -> (h, W, D*4): channel 4*i + c is layer i, component c
-                strip = np.ascontiguousarray(stack.rgba[:, y0:y1].transpose(1, 2, 0, 3))
-                strip = strip.reshape(y1 - y0, W, 4 * D)
-                if not out.write_scanlines(y0, y1, 0, strip):
-                    raise _write_failed(path, out)
-        finally:
-            out.close()
     return path
 
 
@@ -484,16 +501,9 @@ def write_deep(path, stack: LayerStack, *, depth=None, compression: str = "zips"
             if not copy(p, s, source, i, 0):
                 raise VfxStereoError(f"cannot write {path}: OIIO refused deep sample {i}")
     path = Path(path)
-    with atomic_output(path) as tmp:
-        out = oiio.ImageOutput.create(os.fspath(tmp))
-        if out is None:
-            raise _write_failed(path, None)
-        try:
-            if not (out.open(os.fspath(tmp), spec) and out.write_deep_image(deep)):
-                raise _write_failed(path, out)
-        finally:
-            out.close()
-        _mark_tidy(tmp)
+    with open_output(path, spec, before_rename=_mark_tidy) as out:
+        if not out.write_deep_image(deep):
+            raise _write_failed(path, out)
     return path
 
 
@@ -715,15 +725,9 @@ def write_image(path, pixels, *, channels=None, half: bool = False, metadata: di
     for key, value in (metadata or {}).items():
         _attribute(spec, str(key), value)
     arr = np.ascontiguousarray(arr)
-    with atomic_output(path) as tmp:
-        out = oiio.ImageOutput.create(os.fspath(tmp))
-        if out is None:
-            raise VfxStereoError(f"cannot write {path}: {_one_line(oiio.geterror()) or 'unknown format'}")
-        try:
-            if not (out.open(os.fspath(tmp), spec) and out.write_image(arr)):
-                raise _write_failed(path, out)
-        finally:
-            out.close()
+    with open_output(path, spec) as out:
+        if not out.write_image(arr):
+            raise _write_failed(path, out)
     return path
 
 

@@ -16,7 +16,6 @@ function                    input                output
 from __future__ import annotations
 
 import math
-import os
 from pathlib import Path
 
 import numpy as np
@@ -149,7 +148,7 @@ def write_display(path, image8) -> Path:
     """
     import OpenImageIO as oiio
 
-    from vfxstereo.io.atomic import atomic_output
+    from vfxstereo.io.exr import open_output
 
     img = np.ascontiguousarray(image8)
     if img.dtype != np.uint8:
@@ -166,15 +165,8 @@ def write_display(path, image8) -> Path:
     if C == 4:
         spec.attribute("oiio:UnassociatedAlpha", 1)  # the colour is straight already: write it as it is
     spec.attribute("oiio:ColorSpace", "sRGB")
-    with atomic_output(path) as tmp:
-        out = oiio.ImageOutput.create(os.fspath(tmp))
-        if out is None:
-            raise VfxStereoError(f"cannot write {path}: {oiio.geterror()}")
-        try:
-            ok = out.open(os.fspath(tmp), spec) and out.write_image(img)
-        finally:
-            out.close()
-        if not ok:
+    with open_output(path, spec) as out:
+        if not out.write_image(img):
             raise VfxStereoError(f"cannot write {path}: {out.geterror()}")
     return path
 
