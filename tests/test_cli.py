@@ -265,3 +265,22 @@ def test_sigint_during_a_sequence_leaves_only_whole_files(tmp_path, scene):
         assert p.name.startswith("s.") and p.suffix == ".exr" and ".tmp" not in p.name
         assert exr.read_stack(p).depth == 8
     assert os.listdir(out_dir) == [p.name for p in finished]
+
+
+def test_interrupt_inside_a_numba_kernel_is_still_an_interrupt(tmp_path, views, monkeypatch):
+    """numba turns Ctrl-C inside a kernel into a SystemError caused by the KeyboardInterrupt: still exit 130."""
+    from vfxstereo import solver
+
+    def interrupted_in_kernel(*args, **kwargs):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as exc:
+            raise SystemError("CPUDispatcher(...) returned a result with an exception set") from exc
+
+    monkeypatch.setattr(solver, "solve", interrupted_in_kernel)
+    out = tmp_path / "s.exr"
+    assert cli.main(["solve", *map(str, views), "-o", str(out), "--disparities", "0:7", "-q"]) == 130
+    assert not out.exists()
+    monkeypatch.setattr(solver, "solve", lambda *a, **k: (_ for _ in ()).throw(SystemError("a real bug")))
+    with pytest.raises(SystemError, match="a real bug"):
+        cli.main(["solve", *map(str, views), "-o", str(out), "--disparities", "0:7", "-q"])

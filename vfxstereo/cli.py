@@ -613,14 +613,33 @@ def main(argv: list[str] | None = None) -> int:
         print(f"vfxstereo: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print("vfxstereo: interrupted; finished frames are intact, no partial files were left", file=sys.stderr)
-        return 130
+        return _interrupted()
     except BrokenPipeError:  # output piped into head & co.
         sys.stderr.close()
         return 0
     except MemoryError:
         print("vfxstereo: error: out of memory; use fewer disparity planes or smaller plates", file=sys.stderr)
         return 2
+    except Exception as exc:
+        # Ctrl-C inside a numba kernel surfaces as a SystemError caused by the KeyboardInterrupt.
+        if _caused_by_interrupt(exc):
+            return _interrupted()
+        raise
+
+
+def _caused_by_interrupt(exc: BaseException) -> bool:
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
+
+
+def _interrupted() -> int:
+    print("vfxstereo: interrupted; finished frames are intact, no partial files were left", file=sys.stderr)
+    return 130
 
 
 if __name__ == "__main__":  # pragma: no cover
