@@ -411,3 +411,94 @@ def test_insert_rejects_bad_elements_and_values(rng):
         insert(stack, np.zeros((5, 6, 4), np.float32), disparity=1.0, camera=Camera.from_positions([0, 1]))
     with pytest.raises(VfxStereoError, match="LayerStack"):
         insert(stack.rgba, np.zeros((5, 6, 4), np.float32), disparity=1.0)
+
+
+# --------------------------------------------------------------------------------------------------------
+# Composing into the plate (issue 7, part 1)
+
+
+def _with_plate(stack, plate):
+    return LayerStack(stack.rgba, stack.disparities, stack.camera, white=stack.white, plate=plate)
+
+
+def _element_with_holes(rng, h, w):
+    """An element that is empty on about half the frame, soft and opaque elsewhere."""
+    element = _premultiplied(rng, (h, w), opaque_fraction=0.3, empty_fraction=0.5)
+    element[: h // 3] = 0.0  # whole empty rows too
+    return element
+
+
+@pytest.mark.parametrize("D", [0.5, 2.0, 3.0])
+def test_insert_keeps_the_plate_bit_for_bit_where_the_element_is_empty(rng, D):
+    from vfxstereo import samples
+
+    scene = samples.transparent_edge_stereogram(shape=(48, 48), seed=1)
+    truth = scene.stack
+    plate = scene.reference_view
+    # A stack with re-synthesis errors, as a solve leaves them: blurred colour, a seam, wrong alpha here and there.
+    rgba = truth.rgba.copy()
+    rgba[..., :3] *= 0.9
+    rgba[:, :, 20:22] = rgba[:, :, 19:20]
+    rgba[..., 3] = np.maximum(rgba[..., 3], rgba[..., :3].max(axis=-1))
+    solved = _with_plate(LayerStack(rgba, truth.disparities, truth.camera), plate)
+    h, w = plate.shape[:2]
+    element = _element_with_holes(rng, h, w)
+    comp = insert(solved, element, disparity=D)
+    empty = ~np.any(element != 0, axis=-1)
+    assert empty.sum() > h * w // 3
+    np.testing.assert_array_equal(comp[empty][:, :3], plate[empty])
+    np.testing.assert_array_equal(comp[empty][:, 3], 1.0)
+    # ... while composing into the stack shows the stack's errors there
+    assert np.abs(insert(solved, element, disparity=D, into="stack")[empty][:, :3] - plate[empty]).max() > 0.01
+
+
+@pytest.mark.parametrize("D", [0.5, 2.0, 3.0])
+def test_insert_into_plate_with_the_true_stack_is_the_true_comp(rng, D):
+    from vfxstereo import samples
+
+    scene = samples.transparent_edge_stereogram(shape=(48, 48), seed=2)
+    plate = scene.reference_view
+    np.testing.assert_allclose(scene.stack.flatten()[..., :3], plate, atol=1e-5)  # the plate is the stack's view
+    element = _element_with_holes(rng, *plate.shape[:2])
+    truth = insert(scene.stack, element, disparity=D, into="stack")
+    np.testing.assert_allclose(insert(_with_plate(scene.stack, plate), element, disparity=D), truth, atol=1e-5)
+
+
+def test_insert_into_plate_formula_against_pixels(rng):
+    from vfxstereo.composite import insert_into_plate
+
+    h, w = 4, 5
+    front, element, back = (_premultiplied(rng, (h, w)) for _ in range(3))
+    plate = rng.uniform(size=(h, w, 3)).astype(np.float32)
+    out = insert_into_plate(plate, front, element, back)
+    for y in range(h):
+        for x in range(w):
+            p = [*plate[y, x].tolist(), 1.0]
+            see = 1.0 - front[y, x, 3]
+            want = [p[c] + see * element[y, x, c] - element[y, x, 3] * min(see * back[y, x, c], p[c])
+                    for c in range(4)]
+            np.testing.assert_allclose(out[y, x], want, atol=1e-6)
+    # an over-estimated back never takes out more than the plate holds
+    assert (insert_into_plate(plate * 0.01, front, element, back * 0 + 1) >= -1e-7).all()
+
+
+def test_insert_without_a_plate_composes_into_the_layers(rng):
+    stack = _stack(rng)
+    element = _premultiplied(rng, stack.shape[1:])
+    np.testing.assert_allclose(insert(stack, element, disparity=1.5),
+                               insert(stack, element, disparity=1.5, into="stack"), atol=1e-6)
+    np.testing.assert_allclose(insert(stack, element, disparity=1.5, plate=stack.flatten()),
+                               insert(stack, element, disparity=1.5, into="stack"), atol=1e-5)
+
+
+def test_insert_plate_errors(rng):
+    stack = _stack(rng)
+    element = _premultiplied(rng, stack.shape[1:])
+    with pytest.raises(VfxStereoError, match="into="):
+        insert(stack, element, disparity=1.0, into="over")
+    with pytest.raises(VfxStereoError, match="plate"):
+        insert(stack, element, disparity=1.0, plate=np.zeros((3, 3, 3), np.float32))
+    with pytest.raises(VfxStereoError, match="plate"):
+        LayerStack(stack.rgba, stack.disparities, plate=np.zeros((2, 2, 3), np.float32))
+    with pytest.raises(VfxStereoError, match="NaN"):
+        LayerStack(stack.rgba, stack.disparities, plate=np.full((*stack.shape[1:], 3), np.nan, np.float32))

@@ -401,7 +401,7 @@ def _zkey_frame(args, job: Job, progress) -> None:
         z = depth_pixels[..., 0]
     if args.disparity is not None:
         d_split = args.disparity
-        comp = composite.insert(stack, element, disparity=d_split)
+        comp = composite.insert(stack, element, disparity=d_split, into=args.into)
     else:
         if z is None:
             raise VfxStereoError("the element has no Z channel: give --disparity D or --element-depth FILE")
@@ -409,7 +409,7 @@ def _zkey_frame(args, job: Job, progress) -> None:
             raise VfxStereoError(f"the element depth is {z.shape[1]}x{z.shape[0]} but the stack is "
                                  f"{stack.shape[2]}x{stack.shape[1]}")
         d_split = None
-        comp = composite.insert(stack, element, depth=z)
+        comp = composite.insert(stack, element, depth=z, into=args.into)
     write_picture(job.outputs["comp"], comp)
     if d_split is None:
         return
@@ -495,6 +495,7 @@ def stack_info(stack, path: str | None = None) -> dict:
                    for i in range(d)],
         "camera": stack.camera.to_dict() if stack.camera is not None else None,
         "white": stack.white,
+        "plate": stack.plate is not None,
         "metadata": stack.metadata,
     }
 
@@ -507,7 +508,8 @@ def cmd_info(args) -> int:
         print(json.dumps(info, indent=2, default=str))
         return 0
     print(f"{args.stack}: {info['width']}x{info['height']}, {len(info['layers'])} layers, "
-          f"disparities {stack.disparities[0]:g}..{stack.disparities[-1]:g}")
+          f"disparities {stack.disparities[0]:g}..{stack.disparities[-1]:g}, "
+          + ("with the plate (zkey composes into it)" if info["plate"] else "no plate (zkey composes into the layers)"))
     print("  layer  disparity  coverage")
     for layer in info["layers"]:
         bar = "#" * int(round(layer["coverage"] * 40))
@@ -568,6 +570,9 @@ def build_parser() -> argparse.ArgumentParser:
     z.add_argument("element", help="RGBA element (EXR premultiplied; PNG straight alpha, premultiplied on read)")
     z.add_argument("--disparity", type=float, help="insert at this disparity (layers with larger d in front)")
     z.add_argument("--element-depth", help="file with the element's per-pixel depth (first channel)")
+    z.add_argument("--into", choices=("plate", "stack"), default="plate",
+                   help="plate (default): compose into the plate stored in the stack, which stays untouched "
+                        "wherever the element adds nothing; stack: into the stack's own re-synthesis")
     z.add_argument("-o", "--output", required=True, help="comp (EXR linear; PNG/JPEG display-encoded sRGB)")
     z.add_argument("--holdout-out", help="matte of everything in front of the disparity")
     z.add_argument("--front-out", help="flattened layers in front of the disparity")

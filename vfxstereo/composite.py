@@ -41,6 +41,7 @@ __all__ = [
     "flatten",
     "holdout",
     "insert",
+    "insert_into_plate",
     "over",
     "premultiply",
     "render_view",
@@ -303,6 +304,44 @@ def holdout(stack: LayerStack, disparity) -> np.ndarray:
     return (1.0 - transmit).astype(np.float32)
 
 
+def insert_into_plate(plate: np.ndarray, front: np.ndarray, element: np.ndarray, back: np.ndarray) -> np.ndarray:
+    """Compose ``element`` into the *plate*, between the ``front`` and ``back`` of a stack.
+
+    The plate holds ``front + (1 - A_F) * back`` (what the camera saw); the element goes between them::
+
+        comp = plate + (1 - A_F) * E - A_E * min((1 - A_F) * B, plate)
+
+    This is ``front over element over back`` written around the plate: wherever the element is empty
+    (``E = 0``, ``A_E = 0``) the comp *is* the plate, bit for bit, whatever errors the stack's re-synthesis
+    has (bilinear blur, colour means, seams), and elsewhere only the part of the back the element covers is
+    replaced. ``min(., plate)`` (per channel) keeps an over-estimated back from taking out more than the
+    plate holds. With ``plate = over(front, back)`` it equals ``over(front, over(element, back))``, the comp
+    of the stack alone.
+
+    Parameters
+    ----------
+    plate : ndarray of shape (H, W, 3) or (H, W, 4)
+        The reference view, scene-linear; RGB is taken as opaque (alpha 1).
+    front, element, back : ndarray of shape (H, W, 4)
+        Premultiplied RGBA: the layers in front of the element flattened (``A_F`` its alpha), the element
+        (``E``, ``A_E``), and the layers behind it flattened (``B``), as :func:`split` makes them.
+
+    Returns
+    -------
+    ndarray of shape (H, W, 4), float32, premultiplied.
+    """
+    plate = np.asarray(plate, dtype=np.float32)
+    if plate.ndim == 3 and plate.shape[-1] == 3:
+        plate = np.concatenate([plate, np.ones((*plate.shape[:2], 1), np.float32)], axis=-1)
+    hw = plate.shape[:2]
+    plate = _check_rgba("the plate", plate, hw)
+    front, element, back = (_check_rgba(n, x, hw) for n, x in (("front", front), ("the element", element),
+                                                                ("back", back)))
+    see_back = 1.0 - front[..., 3:4]  # (1 - A_F): how much of the back the plate shows
+    seen = np.minimum(see_back * back, plate)  # the back's share of the plate
+    return plate + see_back * element - element[..., 3:4] * seen
+
+
 def insert(
     stack: LayerStack,
     element: np.ndarray,
@@ -311,8 +350,10 @@ def insert(
     depth=None,
     element_disparity=None,
     camera: Camera | None = None,
+    into: str = "plate",
+    plate: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Composite ``element`` between the layers of ``stack`` (z-keying) and return the flattened frame.
+    """Composite ``element`` between the layers of ``stack`` (z-keying) and return the frame.
 
     Give exactly one of:
 
@@ -323,6 +364,13 @@ def insert(
       deep EXR's mapping (:func:`element_disparity_from_depth`); each pixel of the element then goes where its
       disparity falls among the layers (a deep merge), so an element can pass through the scene;
     * ``element_disparity=E`` -- the per-pixel disparity directly.
+
+    By default (``into="plate"``) the element is composed into the plate the stack was solved from
+    (:func:`insert_into_plate`): the comp equals the plate exactly wherever the element is empty, as
+    compositors expect, and only the covered part of the back is replaced. ``into="stack"`` gives the comp
+    of the stack alone, ``front over element over back`` -- the re-synthesised frame with the element in
+    it. A stack without a plate (and no ``plate=``) composes into its own flattened layers, which is the
+    same as ``into="stack"``.
 
     Parameters
     ----------
@@ -335,6 +383,10 @@ def insert(
     element_disparity : ndarray of shape (H, W), optional
     camera : Camera, optional
         For ``depth``: overrides ``stack.camera``. Without either camera, ``d = 1 / Z``.
+    into : {"plate", "stack"}
+        Compose into the plate (default) or into the stack's own re-synthesis.
+    plate : ndarray of shape (H, W, 3), optional
+        The plate to compose into; default ``stack.plate``.
 
     Returns
     -------
@@ -343,8 +395,8 @@ def insert(
     Raises
     ------
     VfxStereoError
-        If not exactly one placement is given, or the element, depth or disparity map differs in size from
-        the stack (the message names both sizes), or holds NaN.
+        If not exactly one placement is given, or the element, plate, depth or disparity map differs in size
+        from the stack (the message names both sizes), or holds NaN.
     """
     stack = _check_stack(stack)
     hw = stack.shape[1:]
@@ -357,6 +409,8 @@ def insert(
         )
     if camera is not None and depth is None:
         raise VfxStereoError("camera= only applies with depth=")
+    if into not in ("plate", "stack"):
+        raise VfxStereoError(f"into= must be 'plate' or 'stack', got {into!r}")
     element = _check_rgba("the element", element, hw)
     if depth is not None:
         z = _check_map("the element's depth", depth, hw)
@@ -366,6 +420,15 @@ def insert(
     else:
         D = _check_disparity(disparity if disparity is not None else element_disparity, hw)
     front, back = split(stack, D)
+    if into == "plate":
+        if plate is None:
+            plate = stack.plate
+        if plate is not None:
+            plate = np.asarray(plate)
+            if plate.ndim != 3 or plate.shape[:2] != tuple(hw) or plate.shape[-1] not in (3, 4):
+                raise VfxStereoError(f"the plate must be an (H, W, 3) image of the stack's size "
+                                     f"{hw[1]}x{hw[0]} (WxH), got shape {plate.shape}")
+            return insert_into_plate(plate, front, element, back)
     return _stack.over(front, _stack.over(element, back))  # Eq. (6) with the element as one more sample
 
 

@@ -712,4 +712,4 @@ def matte_stack(stack, views, *, warper=None, **settings):
     rgba = matte_edges(stack.rgba, stack.disparities, views, warper, **settings)
     meta = dict(stack.metadata)
     meta["edge_matting"] = {k: v for k, v in settings.items() if k != "progress" and k != "band"}
-    return LayerStack(rgba, stack.disparities, stack.camera, meta, stack.white)
+    return LayerStack(rgba, stack.disparities, stack.camera, meta, stack.white, stack.plate)

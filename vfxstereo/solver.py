@@ -272,7 +272,7 @@ def solve(views, *, positions=None, reference: int | None = None, disparities, c
         "selected_fraction": float(sel.fraction),
         "hidden_cells": 0 if hidden is None else int((hidden >= 0).sum()),
         "colorspace": "scene-linear Rec.709",
-    }, white=white)
+    }, white=white, plate=ref if ref_view is not None else None)
     # Reported disparity: the selection's winner, or where it left the column undecided, the front-most
     # opaque layer of the refined stack; then the parabola of Section 8.1 through the aggregated variance.
     index = sel.winner.copy()

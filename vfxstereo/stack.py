@@ -67,6 +67,10 @@ class LayerStack:
     white : float
         Largest straight (unpremultiplied) colour value allowed, 1.0 for display-range plates; plates with
         highlights above 1.0 set it to their peak. Recorded in the metadata.
+    plate : ndarray of shape (H, W, 3) or None
+        The reference view the stack was solved from (scene-linear RGB), when the virtual camera is one of
+        the views. Z-keying composes into it (:func:`vfxstereo.composite.insert`), so the comp equals the
+        plate wherever the element changes nothing; ``None`` for stacks without a plate.
 
     Raises
     ------
@@ -80,6 +84,7 @@ class LayerStack:
     camera: Camera | None = None
     metadata: dict = field(default_factory=dict)
     white: float = 1.0
+    plate: np.ndarray | None = None
 
     def __post_init__(self):
         rgba = np.asarray(self.rgba)
@@ -119,6 +124,16 @@ class LayerStack:
             raise VfxStereoError("camera must be a vfxstereo.Camera")
         if not isinstance(self.metadata, dict):
             raise VfxStereoError("metadata must be a dict")
+        if self.plate is not None:
+            plate = np.asarray(self.plate)
+            if plate.shape != (*rgba.shape[1:3], 3) or not np.issubdtype(plate.dtype, np.floating):
+                raise VfxStereoError(f"the plate must be a float (H, W, 3) image of the stack's size "
+                                     f"{rgba.shape[1:3]}, got {plate.dtype} {plate.shape}")
+            plate = np.ascontiguousarray(plate, dtype=np.float32)
+            if not np.all(np.isfinite(plate)):
+                raise VfxStereoError(f"the plate holds {int(np.count_nonzero(~np.isfinite(plate)))} NaN or "
+                                     f"infinite values")
+            self.plate = plate
         self.rgba = rgba
         self.disparities = disp
         self.white = white
@@ -137,7 +152,7 @@ class LayerStack:
     def copy(self) -> LayerStack:
         """A deep copy."""
         return LayerStack(self.rgba.copy(), self.disparities.copy(), self.camera, copy.deepcopy(self.metadata),
-                          self.white)
+                          self.white, None if self.plate is None else self.plate.copy())
 
     def flatten(self) -> np.ndarray:
         """Back-to-front over of every layer (Eq. 6), the largest disparity on top.

@@ -98,6 +98,18 @@ def test_stack_round_trip_half_is_numpy_float16_rounding(tmp_path, rng):
     assert back.camera is None and back.metadata == {} and back.white == 1.0
 
 
+def test_stack_round_trip_keeps_the_plate_as_a_layer_named_plate(tmp_path, rng):
+    s = random_stack(rng)
+    plate = rng.uniform(0.0, 3.0, (*s.shape[1:], 3)).astype(np.float32)
+    stack = LayerStack(s.rgba, s.disparities, plate=plate)
+    back = exr.read_stack(exr.write_stack(tmp_path / "p.exr", stack, half=False))
+    np.testing.assert_array_equal(back.plate, plate)
+    np.testing.assert_array_equal(back.rgba, stack.rgba)
+    info = oiiotool_info(tmp_path / "p.exr")
+    assert "plate.Combined.R" in info and "vfxstereo/plate" in info
+    assert exr.read_stack(exr.write_stack(tmp_path / "n.exr", s)).plate is None
+
+
 def test_stack_single_layer_and_general_camera(tmp_path, rng):
     M = np.arange(24, dtype=float).reshape(2, 3, 4)
     camera = Camera(positions=[0.0, 1.0], reference=0.0, matrices=M, M0=np.eye(4))

@@ -40,7 +40,12 @@ attribute                   type          value
 ``vfxstereo/white``         string        :attr:`LayerStack.white` as exact decimal text (``"1.0"``)
 ``vfxstereo/camera``        string        JSON of :meth:`Camera.to_dict` (absent when the stack has none)
 ``vfxstereo/metadata``      string        JSON of :attr:`LayerStack.metadata`
+``vfxstereo/plate``         string        :data:`PLATE_LAYER` when the file holds the plate (below)
 ==========================  ============  ==================================================================
+
+The plate (:attr:`LayerStack.plate`, the reference view the stack was solved from, which z-keying composes
+into) is stored after the layers as one more layer, ``plate.Combined.R/G/B/A`` with A = 1: Blender's Image
+node lists it as the layer ``plate``, Nuke as ``plate_Combined``.
 
 ``oiio:ColorSpace`` is set from the metadata's working space when it names one (``working_space``,
 ``colorspace`` or ``colour.working_space``); OIIO 3.2 writes it as the standard ``colorInteropID``
@@ -84,6 +89,9 @@ FORMAT_VERSION = 1
 PASS_NAME = "Combined"
 """The pass of each layer: Blender's name for premultiplied RGBA, so its Image node offers a ``Combined``
 output."""
+
+PLATE_LAYER = "plate"
+"""Layer name of the plate in a stack file (disparity layers are named ``L<i>_d<d>``, so it cannot clash)."""
 
 DISPARITY_CHANNELS = ("Z",)
 """Channel name for disparity maps written with :func:`write_image`. Nuke's own ``depth.Z`` holds
@@ -297,25 +305,35 @@ def write_stack(path, stack: LayerStack, *, half: bool = True, compression: str 
     if not isinstance(stack, LayerStack):
         raise VfxStereoError("write_stack needs a vfxstereo LayerStack")
     D, H, W = stack.shape
-    if 4 * D > _MAX_CHANNELS:
-        raise VfxStereoError(f"an EXR part holds at most {_MAX_CHANNELS // 4} layers, the stack has {D}")
-    if half and max(float(stack.rgba.max()), -float(stack.rgba.min())) > HALF_MAX:
+    plate = stack.plate
+    n_layers = D + (plate is not None)
+    if 4 * n_layers > _MAX_CHANNELS:
+        raise VfxStereoError(f"an EXR part holds at most {_MAX_CHANNELS // 4} layers (the plate is one), "
+                             f"the stack has {n_layers}")
+    peak = max(float(stack.rgba.max()), -float(stack.rgba.min()), 0.0 if plate is None else float(plate.max()))
+    if half and peak > HALF_MAX:
         raise VfxStereoError(f"values above {HALF_MAX:g} do not fit half floats: write with half=False")
     names = layer_names(stack.disparities)
-    spec = oiio.ImageSpec(W, H, 4 * D, "half" if half else "float")
-    spec.channelnames = tuple(f"{n}.{PASS_NAME}.{c}" for n in names for c in "RGBA")
+    spec = oiio.ImageSpec(W, H, 4 * n_layers, "half" if half else "float")
+    spec.channelnames = tuple(f"{n}.{PASS_NAME}.{c}" for n in names + [PLATE_LAYER] * (plate is not None)
+                              for c in "RGBA")
     spec.alpha_channel = -1  # D alphas: none of them is "the" alpha of the image
     spec.attribute("compression", _check_compression(compression))
     _common_header(spec, stack, "layerstack")
     layers = {n: float(d) for n, d in zip(names, stack.disparities, strict=True)}
     spec.attribute("vfxstereo/layers", _to_json(layers, "layer map"))
+    if plate is not None:
+        spec.attribute("vfxstereo/plate", PLATE_LAYER)
     path = Path(path)
     with open_output(path, spec) as out:
         for y0 in range(0, H, _ROWS_PER_CHUNK):
             y1 = min(H, y0 + _ROWS_PER_CHUNK)
-            # (D, h, W, 4) -> (h, W, D*4): channel 4*i + c is layer i, component c
+            # (D, h, W, 4) -> (h, W, D*4): channel 4*i + c is layer i, component c; the plate last
             strip = np.ascontiguousarray(stack.rgba[:, y0:y1].transpose(1, 2, 0, 3))
             strip = strip.reshape(y1 - y0, W, 4 * D)
+            if plate is not None:
+                opaque = np.ones((y1 - y0, W, 1), np.float32)
+                strip = np.concatenate([strip, plate[y0:y1], opaque], axis=-1)
             if not out.write_scanlines(y0, y1, 0, strip):
                 raise _write_failed(path, out)
     return path
@@ -351,10 +369,16 @@ def read_stack(path) -> LayerStack:
             chans = [[index[f"{name}.{PASS_NAME}.{c}"] for c in "RGBA"] for name in layers]
         except KeyError as exc:
             raise VfxStereoError(f"{path} lacks the channel {exc.args[0]} its header lists") from None
+        plate_layer = spec.get_string_attribute("vfxstereo/plate", "")
+        try:
+            plate_chans = [index[f"{plate_layer}.{PASS_NAME}.{c}"] for c in "RGB"] if plate_layer else []
+        except KeyError as exc:
+            raise VfxStereoError(f"{path} lacks the channel {exc.args[0]} its header lists") from None
         disparities = np.array([float(d) for d in layers.values()], dtype=np.float64)
         H, W, C = spec.height, spec.width, spec.nchannels
         sel = np.array(chans).reshape(-1)  # (D*4,) file channel of layer i, component c
         rgba = np.empty((len(layers), H, W, 4), dtype=np.float32)
+        plate = np.empty((H, W, 3), dtype=np.float32) if plate_chans else None
         for y0 in range(0, H, _ROWS_PER_CHUNK):
             y1 = min(H, y0 + _ROWS_PER_CHUNK)
             strip = inp.read_scanlines(0, 0, y0 + spec.y, y1 + spec.y, 0, 0, C, oiio.FLOAT)
@@ -362,10 +386,12 @@ def read_stack(path) -> LayerStack:
                 raise VfxStereoError(f"cannot read {path}: {_one_line(inp.geterror()) or 'corrupt file'}")
             strip = np.asarray(strip, dtype=np.float32).reshape(y1 - y0, W, C)
             rgba[:, y0:y1] = strip[..., sel].reshape(y1 - y0, W, -1, 4).transpose(2, 0, 1, 3)
+            if plate is not None:
+                plate[y0:y1] = strip[..., plate_chans]
     finally:
         inp.close()
     try:
-        return LayerStack(rgba, disparities, camera=camera, metadata=metadata, white=white)
+        return LayerStack(rgba, disparities, camera=camera, metadata=metadata, white=white, plate=plate)
     except VfxStereoError as exc:
         raise VfxStereoError(f"{path}: {exc}") from None
 
