@@ -254,32 +254,27 @@ def _pipeline_header(spec, stack: LayerStack) -> None:
             spec.attribute(name, oiio.TypeMatrix44, tuple(m.astype(np.float32).reshape(-1).tolist()))
 
 
-def _rational(value) -> tuple[int, int]:
+def _int_pair(key: str, value, low: tuple[int, int], high: tuple[int, int], what: str) -> tuple[int, int]:
+    """``value`` as two integers with ``low[i] <= v[i] < high[i]``, or an error naming the metadata ``key``."""
+    ok = isinstance(value, list | tuple) and len(value) == 2
     try:
-        if not isinstance(value, list | tuple):
-            raise TypeError
-        n, d = (int(v) for v in value)
-        ok = all(float(v) == int(v) for v in value) and d > 0 and abs(n) < 2**31 and d < 2**31
+        pair = tuple(int(v) for v in value) if ok else ()
+        ok = ok and all(float(v) == p and lo <= p < hi for v, p, lo, hi in zip(value, pair, low, high, strict=True))
     except (TypeError, ValueError):
         ok = False
     if not ok:
-        raise VfxStereoError(f"metadata 'frames_per_second' must be [numerator, denominator] integers with a "
-                             f"positive denominator, got {value!r}")
-    return n, d
+        raise VfxStereoError(f"metadata {key!r} must be {what}, got {value!r}")
+    return pair
+
+
+def _rational(value) -> tuple[int, int]:
+    return _int_pair("frames_per_second", value, (-2**31, 1), (2**31, 2**31),
+                     "[numerator, denominator] integers with a positive denominator")
 
 
 def _time_code_words(value) -> tuple[int, int]:
-    try:
-        if not isinstance(value, list | tuple):
-            raise TypeError
-        words = tuple(int(v) for v in value)
-        ok = len(words) == 2 and all(0 <= w < 2**32 and float(v) == w for w, v in zip(words, value, strict=True))
-    except (TypeError, ValueError):
-        ok = False
-    if not ok:
-        raise VfxStereoError(f"metadata 'time_code' must be the two 32-bit words [timeAndFlags, userData] of an "
-                             f"OpenEXR timeCode, got {value!r}")
-    return words
+    return _int_pair("time_code", value, (0, 0), (2**32, 2**32),
+                     "the two 32-bit words [timeAndFlags, userData] of an OpenEXR timeCode")
 
 
 def time_code_text(words) -> str:
@@ -470,6 +465,21 @@ def _stack_extras(spec, path) -> tuple[Camera | None, dict, float]:
     return camera, metadata, white
 
 
+def _layers_header(spec, path) -> dict:
+    """The ``vfxstereo/layers`` map ``{layer name: disparity}``, checked."""
+    layers = _header_json(spec, "vfxstereo/layers", path)
+    if not isinstance(layers, dict) or not layers:
+        raise VfxStereoError(f"{path}: the vfxstereo/layers header is missing or empty")
+    return layers
+
+
+def _header_spec(path):
+    """The ImageSpec of a file's first part (its header; no pixels are read)."""
+    inp, spec = _open_input(path)
+    inp.close()
+    return spec
+
+
 def file_kind(path) -> str:
     """``"layerstack"`` or ``"deep"`` for vfxstereo's stack files (by their header), else ``"image"``.
 
@@ -478,9 +488,7 @@ def file_kind(path) -> str:
     VfxStereoError
         If the file is missing or not an image OIIO reads.
     """
-    inp, spec = _open_input(path)
-    inp.close()
-    kind = spec.get_string_attribute("vfxstereo/format", "")
+    kind = _header_spec(path).get_string_attribute("vfxstereo/format", "")
     return kind if kind in ("layerstack", "deep") else "image"
 
 
@@ -499,12 +507,9 @@ def read_deep_header(path) -> dict:
     VfxStereoError
         If the file is missing, unreadable or not a vfxstereo deep file.
     """
-    inp, spec = _open_input(path)
-    inp.close()
+    spec = _header_spec(path)
     _check_kind(spec, path, "deep", "write one with vfxstereo.io.exr.write_deep")
-    layers = _header_json(spec, "vfxstereo/layers", path)
-    if not isinstance(layers, dict) or not layers:
-        raise VfxStereoError(f"{path}: the vfxstereo/layers header is missing or empty")
+    layers = _layers_header(spec, path)
     camera, metadata, white = _stack_extras(spec, path)
     attributes = _attributes(spec)
     depths = np.asarray(attributes.get("vfxstereo/depths", ()), dtype=np.float64).reshape(-1)
@@ -528,9 +533,7 @@ def read_attributes(path) -> dict:
     VfxStereoError
         If the file is missing or not an image OIIO reads.
     """
-    inp, spec = _open_input(path)
-    inp.close()
-    return _attributes(spec)
+    return _attributes(_header_spec(path))
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -620,9 +623,7 @@ def read_stack(path) -> LayerStack:
         _check_kind(spec, path, "layerstack", hint)
         if spec.deep:
             raise VfxStereoError(f"{path} is a deep image, not a multilayer layer stack")
-        layers = _header_json(spec, "vfxstereo/layers", path)
-        if not isinstance(layers, dict) or not layers:
-            raise VfxStereoError(f"{path}: the vfxstereo/layers header is missing or empty")
+        layers = _layers_header(spec, path)
         camera, metadata, white = _stack_extras(spec, path)
         index = {name: c for c, name in enumerate(spec.channelnames)}
         try:
