@@ -6,7 +6,10 @@
 
 * ``to_plane(image, k, i)``  -- W_f: view k resampled onto plane i (Eq. 1);
 * ``to_view(layer, k, i)``   -- W_b: plane i resampled into view k (Eq. 5);
-* ``to_view_adjoint(g, k, i)`` -- the exact transpose of ``to_view``, for the gradient of C1 (Appendix).
+* ``to_view_adjoint(g, k, i)`` -- the exact transpose of ``to_view``, for the gradient of C1 (Appendix);
+* ``shifts(k)`` / ``sample_map(k, i)`` -- where the cells of each plane land in view k (for matching costs
+  that are not linear in the image, :mod:`vfxstereo.matching`);
+* ``project(disparity, k)`` -- where each reference pixel lands in view k at its own disparity (z-buffers).
 """
 
 from __future__ import annotations
@@ -71,6 +74,41 @@ class Warper:
             return self._general.to_view_adjoint(g, k, i)
         return view_to_plane(g, self.disparities[i], self.camera.view_offset(k))
 
+    def shifts(self, k: int) -> tuple[np.ndarray, np.ndarray] | None:
+        """Rectified rigs: ``(sx, sy)``, each (D,) float64, so plane ``i``'s cell (x, y) lands at
+        ``(x - sx[i], y - sy[i])`` in view ``k``; ``None`` for general cameras (use :meth:`sample_map`)."""
+        if self._general is not None:
+            return None
+        off = self.camera.view_offset(k)
+        return self.disparities * off[0], self.disparities * off[1]
+
+    def sample_map(self, k: int, i: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(u, v)``, each (H, W) float32: the column and row of view ``k`` that plane ``i``'s cells land on
+        (Eq. A1; the positions :meth:`to_plane` samples bilinearly). NaN where the plane is behind the view."""
+        h, w = self.shape
+        ys, xs = np.mgrid[0:h, 0:w].astype(np.float64)
+        if self._general is None:
+            sx, sy = self.shifts(k)
+            return (xs - sx[i]).astype(np.float32), (ys - sy[i]).astype(np.float32)
+        H = self._general.homography(k, i)
+        return _dehomogenise(H[:, 0, None, None] * xs + H[:, 1, None, None] * ys + H[:, 2, None, None])
+
+    def project(self, disparity: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(u, v)``, each (H, W) float32: where each reference pixel lands in view ``k`` at its own
+        disparity ``disparity[y, x]`` (Eq. A1 with d per pixel). NaN where the disparity is NaN or the point
+        is behind the view."""
+        d = np.asarray(disparity, dtype=np.float64)
+        h, w = self.shape
+        if d.shape != (h, w):
+            raise VfxStereoError(f"a disparity map of shape {d.shape} does not match the rig's {(h, w)}")
+        ys, xs = np.mgrid[0:h, 0:w].astype(np.float64)
+        if self._general is None:
+            off = self.camera.view_offset(k)
+            return (xs - d * off[0]).astype(np.float32), (ys - d * off[1]).astype(np.float32)
+        P = self.camera.matrices[k] @ np.linalg.inv(self.camera.M0)  # (3, 4): [x y 1 d] -> view (Eq. A1)
+        return _dehomogenise(P[:, 0, None, None] * xs + P[:, 1, None, None] * ys + P[:, 2, None, None]
+                             + P[:, 3, None, None] * d)
+
     def coverage(self, k: int, i: int) -> np.ndarray:
         """(H, W) float32 in [0, 1]: how much of each plane-``i`` cell's bilinear footprint lies in view ``k``."""
         key = (k, i)
@@ -78,3 +116,12 @@ class Warper:
             ones = np.ones(self.shape, dtype=np.float32)
             self._coverage[key] = self.to_plane(ones, k, i)
         return self._coverage[key]
+
+
+def _dehomogenise(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(u, v) = (q0 / q2, q1 / q2)`` as float32, NaN where ``q2 <= 0`` (behind the camera)."""
+    front = q[2] > 1e-12
+    wq = np.where(front, q[2], 1.0)
+    u = np.where(front, q[0] / wq, np.nan)
+    v = np.where(front, q[1] / wq, np.nan)
+    return u.astype(np.float32), v.astype(np.float32)

@@ -1,0 +1,272 @@
+"""numba kernels of the robust depth stage (:mod:`vfxstereo.matching`, :mod:`vfxstereo.sgm`, :mod:`vfxstereo.depth`).
+
+Private: each kernel fills buffers its public wrapper allocates, and each has a plain numpy reference in the
+wrapper's module that its test compares it with.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+# --------------------------------------------------------------------------------------------------------
+# Census transform and Hamming distance
+
+
+@njit(cache=True, parallel=True, nogil=True)
+def census(gray, rh, rw, out):
+    """``out[y, x]``: one bit per window neighbour (row-major, centre skipped), set where it is darker.
+
+    Neighbours outside the frame repeat the edge pixel (a constant border reads as "not darker").
+    """
+    H, W = gray.shape
+    for y in prange(H):
+        for x in range(W):
+            c = gray[y, x]
+            code = np.uint64(0)
+            for dy in range(-rh, rh + 1):
+                yy = min(max(y + dy, 0), H - 1)
+                for dx in range(-rw, rw + 1):
+                    if dy == 0 and dx == 0:
+                        continue
+                    xx = min(max(x + dx, 0), W - 1)
+                    code = (code << np.uint64(1)) | np.uint64(1 if gray[yy, xx] < c else 0)
+            out[y, x] = code
+
+
+@njit(cache=True, inline="always")
+def popcount(v):
+    """Number of set bits of a uint64 (SWAR)."""
+    v = v - ((v >> np.uint64(1)) & np.uint64(0x5555555555555555))
+    v = (v & np.uint64(0x3333333333333333)) + ((v >> np.uint64(2)) & np.uint64(0x3333333333333333))
+    v = (v + (v >> np.uint64(4))) & np.uint64(0x0F0F0F0F0F0F0F0F)
+    return (v * np.uint64(0x0101010101010101)) >> np.uint64(56)
+
+
+# --------------------------------------------------------------------------------------------------------
+# Per-view matching cost, accumulated over views
+
+
+AD_TABLE_STEP = 0.125
+"""Resolution of the colour-difference table of the AD-census cost (8-bit units)."""
+
+
+@njit(cache=True, inline="always")
+def _cell_cost(cref, vref, cview, vview, y, x, u, v, H, W, rho_census, rho_ad):
+    """AD-census cost of reference pixel (y, x) against view position (v, u).
+
+    The census term is the bilinear blend of the taps' ``rho_census[hamming]``; the colour term is
+    ``rho_ad`` of the mean absolute difference to the bilinearly resampled view colour, read from a table
+    in steps of :data:`AD_TABLE_STEP` (the last entry for anything beyond). Returns -1 outside the view.
+    """
+    if not (u >= 0.0 and u <= W - 1 and v >= 0.0 and v <= H - 1):
+        return -1.0
+    u0 = int(np.floor(u))
+    v0 = int(np.floor(v))
+    fu = u - u0
+    fv = v - v0
+    u1 = min(u0 + 1, W - 1)
+    v1 = min(v0 + 1, H - 1)
+    code = cref[y, x]
+    C = vref.shape[2]
+    ad = 0.0
+    cen = (1.0 - fu) * rho_census[popcount(code ^ cview[v0, u0])] + fu * rho_census[popcount(code ^ cview[v0, u1])]
+    if fv == 0.0:
+        for ch in range(C):
+            ad += abs((1.0 - fu) * vview[v0, u0, ch] + fu * vview[v0, u1, ch] - vref[y, x, ch])
+    else:
+        cen = (1.0 - fv) * cen + fv * ((1.0 - fu) * rho_census[popcount(code ^ cview[v1, u0])]
+                                       + fu * rho_census[popcount(code ^ cview[v1, u1])])
+        for ch in range(C):
+            s = ((1.0 - fv) * ((1.0 - fu) * vview[v0, u0, ch] + fu * vview[v0, u1, ch])
+                 + fv * ((1.0 - fu) * vview[v1, u0, ch] + fu * vview[v1, u1, ch]))
+            ad += abs(s - vref[y, x, ch])
+    j = min(int(ad / (C * AD_TABLE_STEP) + 0.5), rho_ad.shape[0] - 1)
+    return cen + rho_ad[j]
+
+
+@njit(cache=True, parallel=True, nogil=True)
+def accumulate_shift(cref, vref, cview, vview, sx, sy, zbuf, planes, tol, rho_census, rho_ad, total, count):
+    """Rectified rigs: add view k's cost at every cell to ``total`` and 1 to ``count`` where the view sees it.
+
+    Cell (y, x, i) samples the view at ``(x - sx[i], y - sy[i])``. With a z-buffer (``zbuf`` of the view's
+    size, the largest disparity that lands on each view pixel, -inf where none), a cell is seen only where
+    ``zbuf`` at its (nearest) view pixel is at most ``planes[i] + tol``.
+    """
+    H, W = cref.shape
+    D = planes.shape[0]
+    for y in prange(H):
+        for x in range(W):
+            for i in range(D):
+                u = x - sx[i]
+                v = y - sy[i]
+                c = _cell_cost(cref, vref, cview, vview, y, x, u, v, H, W, rho_census, rho_ad)
+                if c < 0.0:
+                    continue
+                if zbuf[min(int(v + 0.5), H - 1), min(int(u + 0.5), W - 1)] > planes[i] + tol:
+                    continue
+                total[y, x, i] += c
+                count[y, x, i] += 1
+
+
+@njit(cache=True, parallel=True, nogil=True)
+def accumulate_map(cref, vref, cview, vview, umap, vmap, zbuf, plane, tol, rho_census, rho_ad, total, count, i):
+    """General cameras: as :func:`accumulate_shift` for one plane ``i`` whose cells sample the view at
+    ``(umap, vmap)`` (NaN: behind the camera)."""
+    H, W = cref.shape
+    for y in prange(H):
+        for x in range(W):
+            u = umap[y, x]
+            v = vmap[y, x]
+            c = _cell_cost(cref, vref, cview, vview, y, x, u, v, H, W, rho_census, rho_ad)
+            if c < 0.0:
+                continue
+            if zbuf[min(int(v + 0.5), H - 1), min(int(u + 0.5), W - 1)] > plane + tol:
+                continue
+            total[y, x, i] += c
+            count[y, x, i] += 1
+
+
+@njit(cache=True, nogil=True)
+def zbuffer(u, v, disparity, out):
+    """Splat each reference pixel's disparity onto the (up to) four view pixels around ``(u, v)``, keeping the
+    largest (nearest) per view pixel. ``out`` starts at -inf."""
+    H, W = u.shape
+    Ho, Wo = out.shape
+    for y in range(H):
+        for x in range(W):
+            d = disparity[y, x]
+            uu = u[y, x]
+            vv = v[y, x]
+            if not (np.isfinite(d) and np.isfinite(uu) and np.isfinite(vv)):
+                continue
+            u0 = int(np.floor(uu))
+            v0 = int(np.floor(vv))
+            for b in range(v0, v0 + 2):
+                if b < 0 or b >= Ho:
+                    continue
+                for a in range(u0, u0 + 2):
+                    if 0 <= a < Wo and d > out[b, a]:
+                        out[b, a] = d
+
+
+# --------------------------------------------------------------------------------------------------------
+# Semi-global matching (Hirschmueller 2008): one path direction, added into S
+
+
+@njit(cache=True, nogil=True)
+def sgm_path(C, guide, P1, P2, sigma, dy, dx, S):
+    """Add the path costs L_r of direction r = (dy, dx) to ``S`` (both (H, W, D) float32).
+
+    ``L_r(p, d) = C(p, d) + min(L_r(p-r, d), L_r(p-r, d+-1) + P1, min_k L_r(p-r, k) + P2') - min_k L_r(p-r, k)``
+    with the edge-adapted ``P2' = max(P2 / (1 + |I(p) - I(p-r)| / sigma), P1)``. Paths start afresh at the
+    frame edge. ``dy`` is 0 or +-1, ``dx`` is -1, 0 or 1.
+    """
+    H, W, D = C.shape
+    prev = np.zeros((W, D), np.float32)
+    cur = np.zeros((W, D), np.float32)
+    mprev = np.zeros(W, np.float32)
+    mcur = np.zeros(W, np.float32)
+    x0, x1, xs = (0, W, 1) if dx >= 0 else (W - 1, -1, -1)
+    if dy == 0:  # along rows: the previous pixel is on the same row
+        for y in range(H):
+            lp = prev[0]
+            lc = cur[0]
+            mp = np.float32(0.0)
+            started = False
+            for x in range(x0, x1, xs):
+                m = np.float32(np.inf)
+                if not started:
+                    for d in range(D):
+                        lc[d] = C[y, x, d]
+                        m = min(m, lc[d])
+                    started = True
+                else:
+                    g = abs(guide[y, x] - guide[y, x - dx])
+                    p2 = max(P2 / (1.0 + g / sigma), P1)
+                    for d in range(D):
+                        best = lp[d]
+                        if d > 0:
+                            best = min(best, lp[d - 1] + P1)
+                        if d < D - 1:
+                            best = min(best, lp[d + 1] + P1)
+                        best = min(best, mp + p2)
+                        lc[d] = C[y, x, d] + best - mp
+                        m = min(m, lc[d])
+                for d in range(D):
+                    S[y, x, d] += lc[d]
+                    lp[d] = lc[d]
+                mp = m
+        return
+    y0, y1, ys = (0, H, 1) if dy > 0 else (H - 1, -1, -1)
+    first = True
+    for y in range(y0, y1, ys):
+        for x in range(x0, x1, xs):
+            px = x - dx
+            m = np.float32(np.inf)
+            if first or px < 0 or px >= W:
+                for d in range(D):
+                    cur[x, d] = C[y, x, d]
+                    m = min(m, cur[x, d])
+            else:
+                g = abs(guide[y, x] - guide[y - dy, px])
+                p2 = max(P2 / (1.0 + g / sigma), P1)
+                mp = mprev[px]
+                for d in range(D):
+                    best = prev[px, d]
+                    if d > 0:
+                        best = min(best, prev[px, d - 1] + P1)
+                    if d < D - 1:
+                        best = min(best, prev[px, d + 1] + P1)
+                    best = min(best, mp + p2)
+                    cur[x, d] = C[y, x, d] + best - mp
+                    m = min(m, cur[x, d])
+            mcur[x] = m
+            for d in range(D):
+                S[y, x, d] += cur[x, d]
+        first = False
+        prev, cur = cur, prev
+        mprev, mcur = mcur, mprev
+
+
+# --------------------------------------------------------------------------------------------------------
+# Filling unreliable pixels
+
+
+@njit(cache=True, nogil=True)
+def fill_from_farther(disparity, reliable, guide, out):
+    """Give each unreliable pixel a value from the nearest reliable pixels in 8 directions.
+
+    Candidates nearer than their median are dropped (a hole is filled from the background around it, never
+    by inventing a nearer surface); of the rest, the one whose guide value is closest to the pixel's wins.
+    Pixels with no reliable pixel in any direction stay as they are.
+    """
+    H, W = disparity.shape
+    vals = np.empty(8, np.float32)
+    diffs = np.empty(8, np.float32)
+    for y in range(H):
+        for x in range(W):
+            out[y, x] = disparity[y, x]
+            if reliable[y, x]:
+                continue
+            n = 0
+            for r in range(8):
+                dy = (0, 0, 1, -1, 1, 1, -1, -1)[r]
+                dx = (1, -1, 0, 0, 1, -1, 1, -1)[r]
+                yy = y + dy
+                xx = x + dx
+                while 0 <= yy < H and 0 <= xx < W and not reliable[yy, xx]:
+                    yy += dy
+                    xx += dx
+                if 0 <= yy < H and 0 <= xx < W:
+                    vals[n] = disparity[yy, xx]
+                    diffs[n] = abs(guide[yy, xx] - guide[y, x])
+                    n += 1
+            if n == 0:
+                continue
+            med = np.sort(vals[:n])[n // 2]
+            best = np.inf
+            for j in range(n):
+                if vals[j] <= med and diffs[j] < best:
+                    best = diffs[j]
+                    out[y, x] = vals[j]
