@@ -18,8 +18,9 @@ and Blender. Frames with more digits than the padding are written in full (``###
 ``12345``). Negative frame numbers are not supported.
 
 Frame ranges (:func:`parse_frames`): ``"1001-1100"``, ``"1001-1100x2"`` (every second frame),
-``"1,5,10-12"``, or a single ``"1001"``; fileseq's other range forms work too (``"1-10y3"``: the frames
-``1-10x3`` leaves out; ``"1-10:3"``: staggered, i.e. the same frames as ``1-10``).
+``"1,5,10-12"``, or a single ``"1001"``; and fileseq's ``"1-10y3"`` (the frames ``1-10x3`` leaves out).
+``"A-B:S"`` is refused: fileseq reads it as every frame of A-B in a staggered order, OpenJD (Deadline Cloud)
+as every S-th frame, and a farm chunk read the wrong way would redo other chunks' frames.
 """
 
 from __future__ import annotations
@@ -39,7 +40,7 @@ PAD_STYLE = fileseq.PAD_STYLE_HASH1
 _TOKEN = re.compile(r"#+|@+|%0?\d*d|\$F\d*")
 """One frame token, as fileseq reads it (hash, at, printf and Houdini styles)."""
 
-_RANGE_ITEM = re.compile(r"(?P<start>\d+)(?:-(?P<end>\d+)(?:(?P<mode>[xy:])(?P<step>\d+))?)?")
+_RANGE_ITEM = re.compile(r"(?P<start>\d+)(?:-(?P<end>\d+)(?:(?P<mode>[xy])(?P<step>\d+))?)?")
 """One comma-separated item of a frame range, as we accept it: whole, non-negative frame numbers."""
 
 
@@ -135,9 +136,12 @@ def _check_item(item: str, spec: str) -> None:
         if m["step"] is not None and int(m["step"]) < 1:
             raise VfxStereoError(f"bad frame range {spec!r}: the step must be at least 1")
         return
+    if ":" in item:  # fileseq: staggered order (as a set, the whole range); OpenJD (Deadline Cloud): a step
+        raise VfxStereoError(f"bad frame range {spec!r}: A-B:S means a step to some tools and every frame to "
+                             f"others; write A-BxS for every S-th frame")
     if item.startswith("-") or "--" in item:
         raise VfxStereoError(f"negative frame numbers are not supported: {spec!r}")
-    if re.fullmatch(r"\d+[xy:]\d+", item):
+    if re.fullmatch(r"\d+[xy]\d+", item):
         raise VfxStereoError(f"bad frame range {spec!r}: a step needs a range (A-BxS)")
     raise VfxStereoError(f"bad frame range {spec!r}: {item!r} is not a frame number or range ({_RANGE_HELP})")
 
