@@ -486,6 +486,9 @@ def _dask_client(scheduler: str, workers: int) -> Iterator:
         if scheduler != "local":
             n = len(client.scheduler_info().get("workers", {}))
             log.info("Dask scheduler %s: %d workers now", scheduler, n)
+            if workers > 1:
+                log.warning("--jobs %d does not apply to a scheduler address: its cluster has its own workers",
+                            workers)
         yield client
 
 
