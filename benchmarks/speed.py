@@ -122,12 +122,13 @@ def bandwidth(megabytes: int = 512, repeat: int = 5) -> float:
 # One case, in a process of its own
 
 
-def _peak_bytes() -> int | None:
-    """This process's peak resident memory since the last reset (``VmHWM``), or None without /proc."""
+def _status_bytes(key: str) -> int | None:
+    """A memory figure of this process from /proc/self/status (``VmHWM``: peak since the last reset,
+    ``VmRSS``: resident now), or None without /proc."""
     try:
         with open("/proc/self/status") as f:
             for line in f:
-                if line.startswith("VmHWM:"):
+                if line.startswith(key + ":"):
                     return int(line.split()[1]) * 1024
     except OSError:
         pass
@@ -171,6 +172,7 @@ def run_case(width: int, height: int, planes: int, *, preset: str | None = None)
                  config=config)
     del warm
     result["peak_reset"] = _reset_peak()
+    result["start"] = _status_bytes("VmRSS")  # libraries and plates, resident before the solve
     progress = None
     if sys.stderr.isatty():
         from vfxstereo.shot import ProgressBars
@@ -188,7 +190,7 @@ def run_case(width: int, height: int, planes: int, *, preset: str | None = None)
             progress.close()
     result["seconds"] = time.perf_counter() - t0
     result["timings"] = dict(solved.timings)
-    result["peak"] = _peak_bytes()
+    result["peak"] = _status_bytes("VmHWM")
     result["maxrss"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024  # KiB on Linux
     result["good"] = float(np.mean(np.abs(solved.disparity - truth) <= 1.0))
     return result
@@ -245,14 +247,15 @@ def tables(results: list[dict], bytes_per_second: float) -> str:
         head = [_label(r), r["planes"]]
         status = _status(r)
         if status is not None:
-            rows.append(head + [status] + [None] * (len(stages) + 4))
+            rows.append(head + [status] + [None] * (len(stages) + 5))
             ratio_rows.append(head + [status] + [None] * (len(stages) + 1))
             continue
         n, d, k = r["width"] * r["height"], r["planes"], r["views"]
         cell_views = n * d * k
         times = [r["timings"].get(s) for s in stages]
         rows.append(head + [r["seconds"]] + times
-                    + [_gib(r["peak"]), _gib(r["estimate"]), r["seconds"] / cell_views * 1e9, 100 * r["good"]])
+                    + [_gib(r["peak"]), _gib(r.get("start")), _gib(r["estimate"]), r["seconds"] / cell_views * 1e9,
+                       100 * r["good"]])
         bounds = [stage_bytes(s, n=n, d=d, k=k, settings=r["settings"]) for s in stages]
         ratios = [None if t is None or b is None or b == 0 else t / (b / bytes_per_second)
                   for t, b in zip(times, bounds, strict=True)]
@@ -261,10 +264,12 @@ def tables(results: list[dict], bytes_per_second: float) -> str:
                           + [r["seconds"] / (sum(known) / bytes_per_second) if known else None])
     out = common.section(
         "Solve time per stage (s), peak memory, cost per cell-view",
-        common.markdown_table(["plate", "planes", "total s", *stages, "peak GiB", "estimate GiB",
+        common.markdown_table(["plate", "planes", "total s", *stages, "peak GiB", "start GiB", "estimate GiB",
                                "ns per cell-view", "good %"], rows, digits=2)
-        + "\n\nK = 5 views. *peak*: VmHWM of the solve's process after the plates were made; *estimate*: "
-          "`solver.memory_needed`; *good*: reference pixels within 1 of the true disparity.")
+        + "\n\nK = 5 views. *peak*: VmHWM of the solve's process, reset after the plates were made; *start*: "
+          "what was resident then (libraries and plates), so the solve itself added peak - start; *estimate*: "
+          "`solver.memory_needed`, the solve's own estimate of that; *good*: reference pixels within 1 of the "
+          "true disparity.")
     out += common.section(
         f"Each stage as a multiple of its streaming lower bound (memory bandwidth {bytes_per_second / 1e9:.1f} "
         "GB/s, np.copyto)",
