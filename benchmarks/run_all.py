@@ -1,8 +1,8 @@
 """Run the benchmarks and print every table (Markdown); this is what ``make bench`` runs.
 
-    python benchmarks/run_all.py                     # everything, full size (several minutes on 2 cores)
-    python benchmarks/run_all.py --quick             # small crops and scenes, fewer iterations (< 1 min)
-    python benchmarks/run_all.py --only middlebury   # a subset: middlebury, zkey, throughput
+    python benchmarks/run_all.py                     # everything, full size (speed's HD and 4K cases: hours)
+    python benchmarks/run_all.py --quick             # small crops and scenes, fewer iterations (a few minutes)
+    python benchmarks/run_all.py --only middlebury   # a subset: middlebury, zkey, throughput, speed
 
 The report is also written to ``benchmarks/out/report.md`` (``report_quick.md`` with --quick); figures go to
 ``benchmarks/out/``. Benchmarks print tables and write figures; they are not tests and gate nothing, but the
@@ -23,6 +23,7 @@ BENCHMARKS = {
     "middlebury": "middlebury",
     "zkey": "zkey_edges",
     "throughput": "throughput",
+    "speed": "speed",
 }
 """Benchmark name -> module; each module has ``run(*, quick=False) -> str`` (Markdown)."""
 

@@ -85,3 +85,23 @@ def write_multiview_exr(path, views: dict, layout: str = "single", *, header: di
 def multiview_exr():
     """:func:`write_multiview_exr`, for tests in any folder."""
     return write_multiview_exr
+
+
+def write_plate_sequence(folder, views, frames) -> list[str]:
+    """Write ``views`` (K, H, W, 3) as ``cam<k>.####.exr`` for ``frames``, a little brighter each frame.
+
+    Returns the K frame patterns. The frames differ, so a frame written from the wrong plates shows.
+    """
+    from vfxstereo.io import exr
+
+    folder = Path(folder)
+    for f in frames:
+        for k, view in enumerate(views):
+            exr.write_image(folder / f"cam{k}.{f:04d}.exr", view * (0.9 + 0.05 * (f - frames[0])))
+    return [str(folder / f"cam{k}.####.exr") for k in range(len(views))]
+
+
+@pytest.fixture(scope="session")
+def plate_sequence():
+    """:func:`write_plate_sequence`, for tests in any folder."""
+    return write_plate_sequence

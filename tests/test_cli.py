@@ -300,18 +300,11 @@ def test_failed_command_does_not_clobber_an_existing_output(tmp_path, views):
 # Frame sequences
 
 
-def _write_sequence(folder: Path, scene, frames):
-    for f in frames:
-        for k, view in enumerate(scene.views):
-            exr.write_image(folder / f"cam{k}.{f:04d}.exr", view * (0.9 + 0.05 * (f - frames[0])))
-    return [str(folder / f"cam{k}.####.exr") for k in range(len(scene.views))]
-
-
-def test_sequence_interrupted_then_resumed(tmp_path, scene, monkeypatch):
+def test_sequence_interrupted_then_resumed(tmp_path, scene, monkeypatch, plate_sequence):
     """Ctrl-C on frame 2 of 3: frame 1 stays intact, nothing partial is left; a rerun does frames 2-3 only."""
     from vfxstereo import solver
 
-    patterns = _write_sequence(tmp_path, scene, [1, 2, 3])
+    patterns = plate_sequence(tmp_path, scene.views, [1, 2, 3])
     out = str(tmp_path / "out" / "stack.####.exr")
     (tmp_path / "out").mkdir()
     argv = ["solve", *patterns, "-o", out, "--frames", "1-3", "--disparities", "0:7", "--preset", "wta", "-q"]
@@ -343,8 +336,8 @@ def test_sequence_interrupted_then_resumed(tmp_path, scene, monkeypatch):
     assert first.stat().st_mtime_ns != mtime
 
 
-def test_sequence_in_parallel_jobs_and_steps(tmp_path, scene):
-    patterns = _write_sequence(tmp_path, scene, [1001, 1002, 1003])
+def test_sequence_in_parallel_jobs_and_steps(tmp_path, scene, plate_sequence):
+    patterns = plate_sequence(tmp_path, scene.views, [1001, 1002, 1003])
     out = tmp_path / "s.%04d.exr"
     status, _, err = run_cli("solve", *patterns, "-o", out, "--frames", "1001-1003x2", "--jobs", "2",
                              "--disparities", "0:7", "--preset", "wta", "-q")
@@ -352,8 +345,8 @@ def test_sequence_in_parallel_jobs_and_steps(tmp_path, scene):
     assert sorted(p.name for p in tmp_path.glob("s.*.exr")) == ["s.1001.exr", "s.1003.exr"]
 
 
-def test_sigint_during_a_sequence_leaves_only_whole_files(tmp_path, scene):
-    patterns = _write_sequence(tmp_path, scene, list(range(1, 7)))
+def test_sigint_during_a_sequence_leaves_only_whole_files(tmp_path, scene, plate_sequence):
+    patterns = plate_sequence(tmp_path, scene.views, list(range(1, 7)))
     out_dir = tmp_path / "out"
     out_dir.mkdir()
     proc = subprocess.Popen([sys.executable, "-m", "vfxstereo.cli", "solve", *patterns, "-o",

@@ -53,7 +53,12 @@ def demo(shared_data):
     return S.demo_scene(data_dir=shared_data)
 
 
-SCENES = ["rds", "fig7", pytest.param("matting", marks=pytest.mark.data),
+@pytest.fixture(scope="module")
+def layered():
+    return S.layered_scene(shape=(64, 96), num_planes=12, seed=8)
+
+
+SCENES = ["rds", "fig7", "layered", pytest.param("matting", marks=pytest.mark.data),
           pytest.param("demo", marks=pytest.mark.data)]
 
 
@@ -95,7 +100,7 @@ def test_soft_edge_mask_rejects_negative_dilation(fig7):
         fig7.soft_edge_mask(-1)
 
 
-@pytest.mark.parametrize("make", [S.random_dot_stereogram, S.transparent_edge_stereogram])
+@pytest.mark.parametrize("make", [S.random_dot_stereogram, S.transparent_edge_stereogram, S.layered_scene])
 def test_same_seed_same_views_and_other_seed_other_views(make):
     a, b, c = make(seed=11), make(seed=11), make(seed=12)
     np.testing.assert_array_equal(a.views, b.views)
@@ -347,3 +352,44 @@ def test_shipped_demo_files_match_demo_scene(demo):
     np.testing.assert_allclose(element, S.cg_element(demo.shape), rtol=1e-3, atol=1e-4)  # half float
     assert spec["element_disparity"] == S.DEMO_ELEMENT_DISPARITY
     assert sum(f.stat().st_size for f in DEMO_DIR.iterdir()) < 3_000_000
+
+
+# ------------------------------------------------------------------------------------------------------
+# Layered scene (speed benchmarks)
+
+
+def test_layered_sparse_stack_renders_what_the_full_grid_of_planes_renders(layered):
+    """Only the occupied planes are stored; with the empty planes of the solve's grid put back, the views agree."""
+    planes = layered.stack.metadata["planes"]
+    assert planes == 12
+    np.testing.assert_array_equal(layered.disparities, [0.0, 3.0, 7.0, 10.0])
+    full = np.zeros((planes, *layered.shape, 4), np.float32)
+    full[layered.disparities.astype(int)] = layered.stack.rgba
+    dense = LayerStack(full, np.arange(planes, dtype=np.float64), layered.camera)
+    for k, p in enumerate(layered.positions):
+        np.testing.assert_allclose(dense.render(float(p))[..., :3], layered.views[k], rtol=0, atol=1e-6)
+
+
+def test_layered_edges_are_soft_and_odd_disparities_shift_by_half_pixels(layered):
+    alpha = layered.stack.rgba[1:, ..., 3]
+    assert ((alpha > 0.05) & (alpha < 0.95)).any(axis=(1, 2)).all()  # every layer has a soft edge
+    np.testing.assert_array_equal(layered.positions, [0.0, 0.5, 1.0, 1.5, 2.0])
+    assert layered.mixed_pixels().any()
+
+
+def test_layered_wta_solve_on_the_full_grid_finds_the_layers(layered):
+    """Winner-take-all over d = 0..11 recovers the front layer's disparity at most pixels: the parallax is right."""
+    import vfxstereo
+
+    result = vfxstereo.solve(layered.views, positions=layered.positions, reference=layered.reference,
+                             disparities=np.arange(12.0), config=vfxstereo.SolveConfig.preset("wta"),
+                             return_details=True)
+    good = np.abs(result.disparity - layered.gt_disparity()) <= 1.0
+    assert good.mean() > 0.8
+
+
+@pytest.mark.parametrize("kwargs", [{"layers": 0}, {"layers": 5}, {"num_planes": 6}, {"view_step": 0.0},
+                                    {"edge_width": -1.0}, {"shape": (8, 8)}])
+def test_layered_rejects_bad_settings(kwargs):
+    with pytest.raises(VfxStereoError):
+        S.layered_scene(**{"shape": (32, 32), "num_planes": 8, **kwargs})

@@ -2,82 +2,34 @@
 
 Every command accepts frame patterns (``plate_left.####.exr``, ``plate.%04d.exr``, ``plate.@@@@.exr``) for
 its inputs and outputs; with patterns it runs once per frame of ``--frames`` (default: the frames found on
-disk for the first input pattern). Frames whose outputs all exist are skipped unless ``--overwrite``, so a shot that was
-interrupted resumes where it stopped; ``--jobs N`` runs frames in parallel processes.
+disk for the first input pattern), or of one farm chunk of them (``--chunk-size N --chunk-index I``). Frames
+whose outputs all exist are skipped unless ``--overwrite``, so a shot that was interrupted resumes where it
+stopped; ``--jobs N`` runs frames in parallel processes, ``--scheduler`` on a Dask cluster.
 
-Errors the user can cause end in one line on stderr and exit status 2; outputs are written atomically, so a
-failure or Ctrl-C never leaves half a file and never clobbers an existing one.
+This module only parses arguments: :mod:`vfxstereo.tasks` does each frame's work, :mod:`vfxstereo.shot`
+plans and runs the frames. Errors the user can cause end in one line on stderr and exit status 2; outputs
+are written atomically, so a failure or Ctrl-C never leaves half a file and never clobbers an existing one.
+
+Exit status: 0 done, 1 some frames of a sequence failed (each is reported; the others are written), 2 bad
+input (nothing was run), 130 interrupted.
 """
 
 from __future__ import annotations
 
 import argparse
-import functools
 import json
 import logging
-import multiprocessing
 import os
 import sys
-import time
-from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor, as_completed
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from vfxstereo import shot, tasks
 from vfxstereo.errors import VfxStereoError
+from vfxstereo.tasks import check_input, check_output
 
 log = logging.getLogger("vfxstereo")
-
-PICTURE_EXTENSIONS = {".png", ".jpg", ".jpeg", ".tif", ".tiff"}
-
-
-# --------------------------------------------------------------------------------------------------------
-# Progress and logging
-
-
-class ProgressBars:
-    """A progress callback (``stage, done, total``) shown as one tqdm bar per stage on stderr.
-
-    On a terminal each stage gets a bar; when stderr is not a terminal (logs, CI) each finished stage is one
-    log line with its time instead, so logs stay readable.
-    """
-
-    def __init__(self, *, enabled: bool = True, prefix: str = ""):
-        self.enabled = enabled
-        self.prefix = prefix
-        self.tty = sys.stderr.isatty()
-        self._bar = None
-        self._stage = None
-        self._t0 = time.perf_counter()
-
-    def __call__(self, stage: str, done: int, total: int) -> None:
-        """Show that ``done`` of ``total`` steps of ``stage`` are finished."""
-        if not self.enabled or stage == "passes":
-            return
-        if stage != self._stage:
-            self.close()
-            self._stage = stage
-            self._t0 = time.perf_counter()
-            if self.tty:
-                from tqdm import tqdm
-
-                self._bar = tqdm(total=total, desc=f"{self.prefix}{stage}", file=sys.stderr, leave=False,
-                                 dynamic_ncols=True, mininterval=0.2)
-        if self._bar is not None:
-            self._bar.n = done
-            self._bar.refresh()
-        if done >= total:
-            log.debug("%s%s: %d steps in %.2f s", self.prefix, stage, total, time.perf_counter() - self._t0)
-            self.close()
-
-    def close(self) -> None:
-        """Close the bar of the current stage."""
-        if self._bar is not None:
-            self._bar.close()
-        self._bar = None
-        self._stage = None
 
 
 class _OneLineParser(argparse.ArgumentParser):
@@ -88,30 +40,7 @@ class _OneLineParser(argparse.ArgumentParser):
 
 
 # --------------------------------------------------------------------------------------------------------
-# Checks shared by the commands
-
-
-def check_input(path: str, what: str = "input") -> Path:
-    """An existing, readable file, or VfxStereoError."""
-    p = Path(path)
-    if not p.is_file():
-        raise VfxStereoError(f"{what} not found: {path}")
-    if not os.access(p, os.R_OK):
-        raise VfxStereoError(f"{what} is not readable: {path}")
-    return p
-
-
-def check_output(path: str | None) -> None:
-    """The folder of ``path`` must exist and be writable (checked before any work is done)."""
-    if not path:
-        return
-    folder = Path(path).resolve().parent
-    if not folder.is_dir():
-        raise VfxStereoError(f"output folder does not exist: {folder}")
-    if not os.access(folder, os.W_OK | os.X_OK):
-        raise VfxStereoError(f"output folder is not writable: {folder}")
-    if Path(path).is_dir():
-        raise VfxStereoError(f"output is a folder, not a file: {path}")
+# Arguments
 
 
 def parse_disparities(text: str) -> np.ndarray:
@@ -139,11 +68,6 @@ def parse_disparities(text: str) -> np.ndarray:
     return lo + step * np.arange(n)
 
 
-def default_disparities(width: int) -> np.ndarray:
-    """The default range: 0 to 5 % of the image width per view step, in whole pixels."""
-    return np.arange(0, max(2, int(np.ceil(width * 0.05))) + 1, dtype=np.float64)
-
-
 def parse_float_list(text: str, what: str) -> list[float]:
     """``"0,1.5,3"`` to numbers; ``what`` names the option in the error."""
     try:
@@ -153,206 +77,67 @@ def parse_float_list(text: str, what: str) -> list[float]:
 
 
 # --------------------------------------------------------------------------------------------------------
-# Frame sequences
+# Commands: arguments to a task and its jobs (vfxstereo.tasks, vfxstereo.shot)
 
 
-@dataclass
-class Job:
-    """One command on one frame: concrete input and output paths."""
-
-    frame: int | None
-    inputs: dict[str, str | list[str] | None]
-    outputs: dict[str, str | None]
-
-
-def _substitute(value, frame):
+def _run(args, task, inputs: dict, outputs: dict) -> int:
+    """Plan the jobs of the command's files, run ``task`` on them, and turn the report into the exit status."""
+    chunk = None
+    if (args.chunk_size is None) != (args.chunk_index is None):
+        raise VfxStereoError("--chunk-size and --chunk-index go together")
+    if args.chunk_size is not None:
+        chunk = (args.chunk_size, args.chunk_index)
+    jobs = shot.plan_jobs(inputs, outputs, frames=args.frames, overwrite=args.overwrite, chunk=chunk)
+    report = shot.run_jobs(jobs, task, workers=args.jobs, scheduler=args.scheduler, retries=args.retries,
+                           quiet=args.quiet)
+    if not report.failed:
+        return 0
     from vfxstereo.io import frames
 
-    if value is None:
-        return None
-    if isinstance(value, list):
-        return [_substitute(v, frame) for v in value]
-    return frames.frame_path(value, frame) if frames.is_pattern(value) else value
-
-
-def plan_jobs(args, inputs: dict, outputs: dict) -> list[Job]:
-    """Expand patterns into per-frame jobs; skip frames whose outputs all exist unless ``--overwrite``."""
-    from vfxstereo.io import frames
-
-    flat_inputs = [v for val in inputs.values() if val is not None
-                   for v in (val if isinstance(val, list) else [val])]
-    patterns = [v for v in flat_inputs if frames.is_pattern(v)]
-    for out in outputs.values():
-        check_output(out if out is None or not frames.is_pattern(out) else frames.frame_path(out, 0))
-    if not patterns:
-        if any(o and frames.is_pattern(o) for o in outputs.values()):
-            raise VfxStereoError("an output is a frame pattern but no input is")
-        for val in flat_inputs:
-            check_input(val)
-        return [Job(None, inputs, outputs)]
-    for name, out in outputs.items():
-        if out is not None and not frames.is_pattern(out):
-            raise VfxStereoError(f"inputs are frame patterns, so the output {name} must be one too: {out}")
-    if getattr(args, "frames", None):
-        frame_list = frames.parse_frames(args.frames)
-    else:
-        frame_list = frames.find_frames(patterns[0])
-        if not frame_list:
-            raise VfxStereoError(f"frame pattern matches no files: {patterns[0]}")
-    for pattern in patterns:
-        missing = [f for f in frame_list if not Path(frames.frame_path(pattern, f)).is_file()]
-        if len(missing) == len(frame_list):
-            raise VfxStereoError(f"frame pattern matches no files in the frame range: {pattern}")
-        if missing:
-            raise VfxStereoError(f"frame {missing[0]} of {pattern} is missing ({len(missing)} missing in all)")
-    jobs = []
-    for f in frame_list:
-        outs = {k: _substitute(v, f) for k, v in outputs.items()}
-        done = all(Path(o).exists() for o in outs.values() if o)
-        if done and not args.overwrite:
-            log.info("frame %d: outputs exist, skipped (use --overwrite to redo)", f)
-            continue
-        jobs.append(Job(f, {k: _substitute(v, f) for k, v in inputs.items()}, outs))
-    return jobs
-
-
-def run_jobs(args, jobs: list[Job], work: Callable[[Job, object], None]) -> int:
-    """Run ``work(job, progress)`` for every job, in parallel processes with ``--jobs N``."""
-    if not jobs:
-        log.info("nothing to do: every frame is finished")
-        return 0
-    quiet = getattr(args, "quiet", False)
-    sequence = jobs[0].frame is not None
-    n_jobs = max(1, int(getattr(args, "jobs", 1) or 1))
-    if n_jobs > 1 and len(jobs) > 1:
-        from tqdm import tqdm
-
-        bar = tqdm(total=len(jobs), desc="frames", file=sys.stderr, disable=quiet, dynamic_ncols=True)
-        # spawn, not fork: forking a process whose OpenImageIO/OpenMP threads hold locks can deadlock the child
-        with ProcessPoolExecutor(max_workers=n_jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
-            futures = {pool.submit(_work_in_child, work, job): job for job in jobs}
-            try:
-                for fut in as_completed(futures):
-                    job = futures[fut]
-                    seconds = fut.result()
-                    log.info("frame %s done in %.1f s", job.frame, seconds)
-                    bar.update(1)
-            except BaseException:
-                for fut in futures:
-                    fut.cancel()
-                raise
-            finally:
-                bar.close()
-        return 0
-    for i, job in enumerate(jobs):
-        prefix = f"frame {job.frame} ({i + 1}/{len(jobs)}) " if sequence else ""
-        bars = ProgressBars(enabled=not quiet, prefix=prefix)
-        t0 = time.perf_counter()
-        try:
-            work(job, bars)
-        finally:
-            bars.close()
-        if sequence:
-            log.info("frame %d done in %.1f s", job.frame, time.perf_counter() - t0)
-    return 0
-
-
-def _work_in_child(work, job) -> float:
-    t0 = time.perf_counter()
-    work(job, None)
-    return time.perf_counter() - t0
-
-
-# --------------------------------------------------------------------------------------------------------
-# Output helpers
-
-
-def write_picture(path: str, pixels: np.ndarray, *, metadata: dict | None = None) -> None:
-    """EXR stays scene-linear; PNG/JPEG/TIFF are written display-encoded (sRGB, unpremultiplied over nothing)."""
-    ext = Path(path).suffix.lower()
-    if ext in PICTURE_EXTENSIONS:
-        from vfxstereo.io import preview
-
-        preview.write_png(path, pixels)
-    else:
-        from vfxstereo.io import exr
-
-        exr.write_image(path, pixels, metadata=metadata)
-
-
-# --------------------------------------------------------------------------------------------------------
-# Commands
-
-
-def _solve_frame(args, job: Job, progress) -> None:
-    """``solve`` on one frame (module level, so that --jobs can send it to other processes)."""
-    from vfxstereo import solver
-    from vfxstereo.config import SolveConfig
-    from vfxstereo.io import exr, plates, preview
-
-    config = SolveConfig.preset(args.preset)
-    view_set = plates.read_view_set(job.inputs["views"], views=args._view_names, colorspace=args.input_colorspace)
-    views = view_set.pixels
-    k, h, w = views.shape[:3]
-    positions = args._positions if args._positions is not None else list(range(k))
-    if len(positions) != k:
-        raise VfxStereoError(f"{k} views need {k} positions, --positions gave {len(positions)}")
-    disparities = args._disparities if args._disparities is not None else default_disparities(w)
-    camera = args._camera
-    result = solver.solve(views, positions=positions, reference=args._reference, disparities=disparities,
-                          config=config, progress=progress, camera=camera, return_details=True)
-    stack = result.stack
-    stack.metadata.update(view_set.metadata(reference=stack.camera.reference_index))
-    stack.metadata.update({"colorspace_in": args.input_colorspace or "default", "frame": job.frame})
-    exr.write_stack(job.outputs["stack"], stack)
-    if job.outputs.get("disparity"):
-        exr.write_disparity(job.outputs["disparity"], result.disparity,
-                            metadata={"vfxstereo/what": "sub-pixel disparity of the reference camera"})
-    if job.outputs.get("deep"):
-        exr.write_deep(job.outputs["deep"], stack)
-    if args.previews:
-        folder = Path(args.previews)
-        stem = Path(job.outputs["stack"]).stem
-        preview.write_png(str(folder / f"{stem}_layers.png"), preview.contact_sheet(stack))
-        preview.write_png(str(folder / f"{stem}_disparity.png"), preview.disparity_preview(result.disparity))
-        preview.write_png(str(folder / f"{stem}_flat.png"), stack.flatten())
+    failed = report.failed
+    first = failed[0]
+    print(f"vfxstereo: error: {len(failed)} of {len(failed) + len(report.done)} frames failed "
+          f"({frames.frame_range(f.frame for f in failed)}; tried {first.attempts} "
+          f"time{'s' * (first.attempts > 1)} each), the others are written. Frame {first.frame}: {first.error}",
+          file=sys.stderr)
+    return 1
 
 
 def cmd_solve(args) -> int:
     """``vfxstereo solve``: views to a layer stack (and disparity, deep, previews)."""
-    from vfxstereo.geometry import Camera
     from vfxstereo.io import plates
 
     views = list(args.views)
-    args._view_names = _parse_view_names(args.view_names)
-    args._positions = parse_float_list(args.positions, "--positions") if args.positions else None
-    args._reference = args.reference
-    args._disparities = parse_disparities(args.disparities) if args.disparities else None
-    args._camera = None
+    view_names = _parse_view_names(args.view_names)
+    positions = parse_float_list(args.positions, "--positions") if args.positions else None
+    reference = args.reference
+    camera = None
     if args.dataset:
         ds = plates.load_dataset(args.dataset)
         if views:
             raise VfxStereoError("give either VIEW files or --dataset, not both")
         views = [str(v) for v in ds.views]
-        if args._positions is None:
-            args._positions = list(ds.positions)
-        if args._reference is None:
-            args._reference = int(ds.reference)
+        if positions is None:
+            positions = list(ds.positions)
+        if reference is None:
+            reference = int(ds.reference)
     if args.cameras:
-        args._camera = _load_cameras(args.cameras)
+        camera = _load_cameras(args.cameras)
     if not views:
         raise VfxStereoError("solve needs at least two views (files), or one multi-view EXR")
-    if args._view_names is not None and len(views) != 1:
+    if view_names is not None and len(views) != 1:
         raise VfxStereoError(f"--views picks views inside one multi-view EXR (or one frame pattern of them), "
                              f"but {len(views)} inputs were given")
     if args.previews:
         Path(args.previews).mkdir(parents=True, exist_ok=True)
         check_output(str(Path(args.previews) / "x.png"))
-    _ = Camera  # camera model import kept local to the command
-    jobs = plan_jobs(args, {"views": views},
-                     {"stack": args.output, "disparity": args.disparity_out, "deep": args.deep_out})
-    _check_solve_inputs(jobs, args)
-    return run_jobs(args, jobs, functools.partial(_solve_frame, args))
+    task = tasks.SolveTask(
+        preset=args.preset, view_names=None if view_names is None else tuple(view_names),
+        positions=None if positions is None else tuple(float(p) for p in positions), reference=reference,
+        disparities=parse_disparities(args.disparities) if args.disparities else None, camera=camera,
+        input_colorspace=args.input_colorspace, previews=os.path.abspath(args.previews) if args.previews else None)
+    return _run(args, task, {"views": views},
+                {"stack": args.output, "disparity": args.disparity_out, "deep": args.deep_out})
 
 
 def _parse_view_names(text: str | None) -> list[str] | None:
@@ -363,31 +148,6 @@ def _parse_view_names(text: str | None) -> list[str] | None:
     if not all(names):
         raise VfxStereoError(f"--views must be comma-separated view names, got {text!r}")
     return names
-
-
-def _check_solve_inputs(jobs: list[Job], args) -> None:
-    """Before any work: the first frame's views, from their headers, against positions, cameras, memory."""
-    if not jobs:
-        return
-    from vfxstereo import solver
-    from vfxstereo.io import plates
-
-    first = jobs[0].inputs["views"]
-    if len(first) == 1:  # one multi-view EXR per frame
-        layout = plates.describe_plate(first[0])
-        if not layout.views and args._view_names is None:
-            raise VfxStereoError(f"solve needs at least two views: {first[0]} is one image, not a multi-view "
-                                 "EXR (no multiView header and no part with a view attribute)")
-        names = layout.select(args._view_names)
-        k, (h, w) = len(names), layout.view_size(names[0])
-    else:
-        k, (h, w) = len(first), plates.image_size(first[0])
-    if args._positions is not None and len(args._positions) != k:
-        raise VfxStereoError(f"{k} views need {k} positions, --positions gave {len(args._positions)}")
-    if args._camera is not None and args._camera.K != k:
-        raise VfxStereoError(f"--cameras describes {args._camera.K} cameras for {k} views")
-    d = len(args._disparities) if args._disparities is not None else len(default_disparities(w))
-    solver.check_memory((h, w), d, k)
 
 
 def _load_cameras(path: str):
@@ -404,108 +164,32 @@ def _load_cameras(path: str):
     return Camera.from_dict(data)
 
 
-def _read_stack(path: str):
-    from vfxstereo.io import exr
-
-    check_input(path, "stack")
-    return exr.read_stack(path)
-
-
-def _zkey_frame(args, job: Job, progress) -> None:
-    """``zkey`` on one frame."""
-    from vfxstereo import composite
-    from vfxstereo.io import plates
-
-    stack = _read_stack(job.inputs["stack"])
-    element, z = plates.read_element(job.inputs["element"], colorspace=args.input_colorspace)
-    if element.shape[:2] != stack.shape[1:]:
-        raise VfxStereoError(f"element is {element.shape[1]}x{element.shape[0]} but the stack is "
-                             f"{stack.shape[2]}x{stack.shape[1]}: {job.inputs['element']}")
-    if job.inputs.get("depth"):
-        depth_pixels, _, _ = _read_image(job.inputs["depth"])
-        z = depth_pixels[..., 0]
-    if args.disparity is not None:
-        d_split = args.disparity
-        comp = composite.insert(stack, element, disparity=d_split, into=args.into)
-    else:
-        if z is None:
-            raise VfxStereoError("the element has no Z channel: give --disparity D or --element-depth FILE")
-        if z.shape != stack.shape[1:]:
-            raise VfxStereoError(f"the element depth is {z.shape[1]}x{z.shape[0]} but the stack is "
-                                 f"{stack.shape[2]}x{stack.shape[1]}")
-        d_split = None
-        comp = composite.insert(stack, element, depth=z, into=args.into)
-    write_picture(job.outputs["comp"], comp)
-    if d_split is None:
-        return
-    if job.outputs.get("holdout"):
-        write_picture(job.outputs["holdout"], composite.holdout(stack, d_split)[..., None])
-    if job.outputs.get("front") or job.outputs.get("back"):
-        front, back = composite.split(stack, d_split)
-        if job.outputs.get("front"):
-            write_picture(job.outputs["front"], front)
-        if job.outputs.get("back"):
-            write_picture(job.outputs["back"], back)
-
-
-def _read_image(path: str):
-    from vfxstereo.io import exr
-
-    check_input(path, "image")
-    return exr.read_image(path)
-
-
 def cmd_zkey(args) -> int:
     """``vfxstereo zkey``: a CG element between the layers of a stack."""
     if args.disparity is not None and args.element_depth is not None:
         raise VfxStereoError("give --disparity or --element-depth, not both")
     if args.disparity is None and any((args.holdout_out, args.front_out, args.back_out)):
         raise VfxStereoError("--holdout-out, --front-out and --back-out need --disparity")
-    jobs = plan_jobs(args, {"stack": args.stack, "element": args.element, "depth": args.element_depth},
-                     {"comp": args.output, "holdout": args.holdout_out, "front": args.front_out,
-                      "back": args.back_out})
-    return run_jobs(args, jobs, functools.partial(_zkey_frame, args))
-
-
-def _render_frame(args, job: Job, progress) -> None:
-    """``render`` on one frame."""
-    from vfxstereo import composite
-
-    stack = _read_stack(job.inputs["stack"])
-    position = args._position if len(args._position) == 2 else args._position[0]
-    write_picture(job.outputs["view"], composite.render_view(stack, position))
+    task = tasks.ZkeyTask(disparity=args.disparity, into=args.into, input_colorspace=args.input_colorspace)
+    return _run(args, task, {"stack": args.stack, "element": args.element, "depth": args.element_depth},
+                {"comp": args.output, "holdout": args.holdout_out, "front": args.front_out, "back": args.back_out})
 
 
 def cmd_render(args) -> int:
     """``vfxstereo render``: a novel view of a stack."""
-    args._position = parse_float_list(args.position, "--position")
-    if len(args._position) not in (1, 2):
+    position = parse_float_list(args.position, "--position")
+    if len(position) not in (1, 2):
         raise VfxStereoError("--position takes one number or X,Y")
-    jobs = plan_jobs(args, {"stack": args.stack}, {"view": args.output})
-    return run_jobs(args, jobs, functools.partial(_render_frame, args))
-
-
-def _split_frame(args, job: Job, progress) -> None:
-    """``split`` on one frame."""
-    from vfxstereo import composite
-
-    stack = _read_stack(job.inputs["stack"])
-    front, back = composite.split(stack, args.disparity)
-    if job.outputs.get("front"):
-        write_picture(job.outputs["front"], front)
-    if job.outputs.get("back"):
-        write_picture(job.outputs["back"], back)
-    if job.outputs.get("holdout"):
-        write_picture(job.outputs["holdout"], composite.holdout(stack, args.disparity)[..., None])
+    task = tasks.RenderTask(position=tuple(position) if len(position) == 2 else position[0])
+    return _run(args, task, {"stack": args.stack}, {"view": args.output})
 
 
 def cmd_split(args) -> int:
     """``vfxstereo split``: the flattened layers in front of and behind a disparity."""
     if not (args.front_out or args.back_out or args.holdout_out):
         raise VfxStereoError("split needs --front-out, --back-out or --holdout-out")
-    jobs = plan_jobs(args, {"stack": args.stack},
-                     {"front": args.front_out, "back": args.back_out, "holdout": args.holdout_out})
-    return run_jobs(args, jobs, functools.partial(_split_frame, args))
+    return _run(args, tasks.SplitTask(disparity=args.disparity), {"stack": args.stack},
+                {"front": args.front_out, "back": args.back_out, "holdout": args.holdout_out})
 
 
 def stack_info(stack, path: str | None = None, attributes: dict | None = None) -> dict:
@@ -543,7 +227,7 @@ def cmd_info(args) -> int:
     check_input(path, "file")
     kind = exr.file_kind(path)
     if kind == "layerstack":
-        stack = _read_stack(path)
+        stack = tasks.read_stack(path)
         info = stack_info(stack, path, exr.read_attributes(path))
         lines = _stack_lines(stack, info)
     elif kind == "deep":
@@ -654,7 +338,20 @@ def build_parser() -> argparse.ArgumentParser:
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument("--frames", help="frame range for patterns: 1001-1100, 1001-1100x2, 1,5,10-12")
     common.add_argument("--overwrite", action="store_true", help="redo frames whose outputs exist")
-    common.add_argument("--jobs", type=int, default=1, help="frames processed in parallel (local cores)")
+    common.add_argument("--jobs", type=_count(1), default=1, metavar="N",
+                        help="frames processed in parallel: local processes, or the workers of --scheduler local")
+    common.add_argument("--scheduler", metavar="ADDRESS",
+                        help="run the frames on a Dask cluster: 'local' starts one here with --jobs workers, "
+                             "or a scheduler address such as tcp://10.0.0.5:8786 (workers must see the same "
+                             "paths)")
+    common.add_argument("--retries", type=_count(0), default=1, metavar="N",
+                        help="try a failed frame of a sequence up to N more times (default 1); the other "
+                             "frames go on, and the exit status is 1 if any frame failed")
+    common.add_argument("--chunk-size", type=_count(1), metavar="N",
+                        help="render-farm chunks: N frames per task (the farm's chunk size); with --chunk-index")
+    common.add_argument("--chunk-index", type=_count(0), metavar="I",
+                        help="which chunk of --frames this task runs, counting from 0: frames I*N .. I*N+N-1 "
+                             "of the frame list")
     common.add_argument("-q", "--quiet", action="store_true", help="no progress bars or log lines")
     common.add_argument("-v", "--verbose", action="store_true", help="more log lines")
     common.add_argument("--input-colorspace", default=None,
@@ -725,18 +422,55 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _count(minimum: int):
+    """An argparse type: a whole number of at least ``minimum``."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be a whole number, got {text!r}") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"must be at least {minimum}, got {value}")
+        return value
+
+    return parse
+
+
 def _version() -> str:
     from vfxstereo import __version__
 
     return __version__
 
 
+class _StderrHandler(logging.StreamHandler):
+    """Our log lines on stderr (``vfxstereo: ...``); a class of its own so that main() adds it once."""
+
+    def __init__(self):
+        super().__init__(sys.stderr)
+        self.setFormatter(logging.Formatter("vfxstereo: %(message)s"))
+
+    @property
+    def stream(self):  # always the current sys.stderr (tests replace it)
+        return sys.stderr
+
+    @stream.setter
+    def stream(self, value):
+        pass
+
+
+def _log_to_stderr(level: int) -> None:
+    """Show the ``vfxstereo`` logger's lines on stderr at ``level``; other libraries' loggers (Dask's) stay quiet."""
+    log.setLevel(level)
+    if not any(isinstance(h, _StderrHandler) for h in log.handlers):
+        log.addHandler(_StderrHandler())
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``vfxstereo`` console script."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    level = logging.WARNING if args.quiet else logging.DEBUG if args.verbose else logging.INFO
-    logging.basicConfig(level=level, format="vfxstereo: %(message)s", stream=sys.stderr)
+    _log_to_stderr(logging.WARNING if args.quiet else logging.DEBUG if args.verbose else logging.INFO)
     try:
         return int(args.func(args) or 0)
     except VfxStereoError as exc:
@@ -752,19 +486,9 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     except Exception as exc:
         # Ctrl-C inside a numba kernel surfaces as a SystemError caused by the KeyboardInterrupt.
-        if _caused_by_interrupt(exc):
+        if shot.caused_by_interrupt(exc):
             return _interrupted()
         raise
-
-
-def _caused_by_interrupt(exc: BaseException) -> bool:
-    seen = set()
-    while exc is not None and id(exc) not in seen:
-        if isinstance(exc, KeyboardInterrupt):
-            return True
-        seen.add(id(exc))
-        exc = exc.__cause__ or exc.__context__
-    return False
 
 
 def _interrupted() -> int:

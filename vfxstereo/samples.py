@@ -20,6 +20,9 @@ scene                              what
 :func:`demo_scene`                 the shipped demo: trolls' hair (GT04) at d = 4, a pumpkin (GT19) at
                                    d = 2, Teddy at d = 0; 320 x 225, K = 5
 :func:`cg_element`                 a premultiplied anti-aliased checker card for z-keying
+:func:`layered_scene`              any size and number of planes (HD, 4K; 128 planes): soft-edged
+                                   random-dot layers spread over the range, only the occupied planes
+                                   stored; for speed benchmarks
 =================================  ====================================================================
 
 Conventions as in :mod:`vfxstereo.stack`: arrays ``[row, col]``, colour scene-linear float32, RGBA
@@ -835,3 +838,96 @@ def cg_element(
     rgba = np.concatenate([rgb, inside[..., None].astype(np.float64)], axis=-1)  # (H*ss, W*ss, 4)
     rgba = rgba.reshape(h, ss, w, ss, 4).mean(axis=(1, 3))
     return rgba.astype(np.float32)
+
+
+# --------------------------------------------------------------------------------------------------------
+# 5. Soft-edged layers at any size, for speed benchmarks
+
+
+def _soft_ellipse(h: int, w: int, centre, radii, edge_width: float) -> np.ndarray:
+    """Alpha of an ellipse whose edge is a linear ramp ``edge_width`` pixels wide (measured on its short axis)."""
+    yy, xx = np.ogrid[0:h, 0:w]
+    rho = np.sqrt(((yy - centre[0]) / radii[0]) ** 2 + ((xx - centre[1]) / radii[1]) ** 2, dtype=np.float32)
+    return np.clip((1.0 - rho) * np.float32(min(radii) / edge_width) + np.float32(0.5), 0.0, 1.0)
+
+
+_LAYER_SHADES = (LIGHT_BLUE, RED, DARK_RED, ((0.05, 0.12, 0.02), (0.45, 0.70, 0.20)))
+
+
+def layered_scene(
+    *,
+    shape: tuple[int, int] = (540, 960),
+    num_planes: int = 64,
+    layers: int = 3,
+    view_step: float = 0.5,
+    edge_width: float = 3.0,
+    seed: int | np.random.Generator = 0,
+) -> Sample:
+    """Soft-edged textured layers at any size and number of planes, for speed benchmarks (HD, 4K).
+
+    A random-dot backdrop at d = 0 covers the frame; ``layers`` soft-edged random-dot ellipses lie at
+    disparities spread over the range, ``round(0.9 (i + 1) / layers (num_planes - 1))`` for layer i, nearer
+    ones smaller and further right. K = 5 views ``view_step`` apart (reference 2), so odd disparities shift
+    by half pixels when the step is 0.5 (bilinear mixed pixels, as in :func:`transparent_edge_stereogram`).
+
+    The ground-truth stack holds only the occupied planes (the backdrop and the layers), so it stays small
+    at 4096 x 2160 with 128 planes; a full stack with empty planes in between renders the same views (the
+    empty planes add nothing). Solve it on the whole grid ``np.arange(num_planes)``;
+    ``stack.metadata["planes"]`` says how many.
+
+    Parameters
+    ----------
+    shape : tuple of int
+        ``(H, W)``, at least 16 x 16.
+    num_planes : int
+        The solve's plane count D (disparities 0 .. D - 1); at least ``layers + 1``.
+    layers : int
+        Soft-edged layers in front of the backdrop, 1 to 4.
+    view_step : float
+        Distance between neighbouring views, in position units.
+    edge_width : float
+        Width in pixels of each layer's alpha ramp.
+    seed : int or numpy.random.Generator
+        Seed of the textures.
+
+    Returns
+    -------
+    Sample
+        ``name = "layered"``; ``stack.disparities`` are the occupied planes only.
+    """
+    h, w = _check_shape(shape)
+    if int(layers) != layers or not 1 <= layers <= len(_LAYER_SHADES):
+        raise VfxStereoError(f"layers must be a whole number from 1 to {len(_LAYER_SHADES)}, got {layers}")
+    if int(num_planes) != num_planes or num_planes < 2 * layers + 1:
+        raise VfxStereoError(f"{layers} layers need at least {2 * layers + 1} planes, got num_planes={num_planes}")
+    if not (np.isfinite(view_step) and view_step > 0):
+        raise VfxStereoError(f"view_step must be a positive number, got {view_step}")
+    if not (np.isfinite(edge_width) and edge_width > 0):
+        raise VfxStereoError(f"edge_width must be a positive number of pixels, got {edge_width}")
+    rng = np.random.default_rng(seed)
+    layers, num_planes = int(layers), int(num_planes)
+    occupied = [0.0] + [float(round(0.9 * (i + 1) / layers * (num_planes - 1))) for i in range(layers)]
+    rgba = np.zeros((len(occupied), h, w, 4), np.float32)
+    rgba[0, ..., :3] = random_dots(rng, (h, w), BLUE_GREEN)
+    rgba[0, ..., 3] = 1.0
+    for i in range(layers):
+        centre = (h * (0.42 + 0.08 * i), w * (0.30 + 0.40 * (i + 1) / (layers + 1)))
+        radii = (h * (0.30 - 0.05 * i), w * (0.22 - 0.03 * i))
+        alpha = _soft_ellipse(h, w, centre, radii, float(edge_width))
+        rgba[i + 1, ..., :3] = random_dots(rng, (h, w), _LAYER_SHADES[i]) * alpha[..., None]
+        rgba[i + 1, ..., 3] = alpha
+    camera = Camera.from_positions(view_step * np.arange(5, dtype=np.float64), reference=2)
+    meta = {
+        "sample": "layered",
+        "generator": "vfxstereo.samples.layered_scene",
+        "seed": seed if isinstance(seed, int) else None,
+        "planes": num_planes,
+        "edge_width": float(edge_width),
+    }
+    stack = LayerStack(rgba, np.asarray(occupied), camera, meta)
+    description = (
+        f"Layered scene for speed: {w}x{h} px (W x H), K=5 views {view_step:g} apart, reference 2, solved on "
+        f"planes d=0..{num_planes - 1}. A random-dot backdrop at d=0 and {layers} random-dot ellipses with "
+        f"{edge_width:g}-px soft edges at d={', '.join(f'{d:g}' for d in occupied[1:])}."
+    )
+    return Sample.from_stack(stack, name="layered", description=description)

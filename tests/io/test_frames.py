@@ -106,3 +106,48 @@ def test_find_frames_nothing(tmp_path):
         find_frames(tmp_path / "missing" / "plate.####.exr")
     with pytest.raises(VfxStereoError, match="not a frame pattern"):
         find_frames(tmp_path / "plate.0001.exr")
+
+
+def test_hash_in_a_folder_name_is_not_a_token(tmp_path):
+    folder = tmp_path / "shot#3"
+    folder.mkdir()
+    for n in (7, 8):
+        (folder / f"a.{n:04d}.exr").touch()
+    pattern = str(folder / "a.####.exr")
+    assert is_pattern(pattern)
+    assert frame_path(pattern, 7) == str(folder / "a.0007.exr")
+    assert find_frames(pattern) == [7, 8]
+
+
+def test_houdini_padding_reads_as_fileseq_does():
+    assert frame_path("a.$F4.exr", 7) == "a.0007.exr"
+    assert frame_path("a.$F.exr", 7) == "a.7.exr"
+
+
+def test_a_range_inside_a_pattern_is_refused():
+    assert is_pattern("a.1001-1010####.exr")
+    with pytest.raises(VfxStereoError, match="--frames"):
+        frame_path("a.1001-1010####.exr", 1001)
+
+
+@pytest.mark.parametrize(("spec", "expected"), [
+    ("1-10y3", [2, 3, 5, 6, 8, 9]),  # fileseq's "filled": the frames 1-10x3 leaves out
+])
+def test_parse_frames_takes_fileseq_forms(spec, expected):
+    assert parse_frames(spec) == expected
+
+
+@pytest.mark.parametrize(("spec", "message"), [
+    ("1.5", "not a frame number"),
+    ("1-10y0", "at least 1"),
+    ("1-100000000", "MAX_FRAME_SIZE"),
+    ("1-9:2", "write A-BxS"),  # fileseq: every frame, staggered; OpenJD: every second one
+])
+def test_parse_frames_refuses_what_we_do_not_support(spec, message):
+    with pytest.raises(VfxStereoError, match=message):
+        parse_frames(spec)
+
+
+def test_frame_range_is_compact():
+    assert frames.frame_range([1003, 1001, 1002, 1007]) == "1001-1003,1007"
+    assert parse_frames(frames.frame_range([1, 3, 5, 6])) == [1, 3, 5, 6]

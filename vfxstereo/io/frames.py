@@ -1,4 +1,4 @@
-"""Frame sequences: file-name patterns and frame ranges.
+"""Frame sequences: file-name patterns and frame ranges, through ``fileseq`` (the library VFX pipelines use).
 
 Pattern styles (one frame token per pattern, in the file name, not in the folder):
 
@@ -9,15 +9,18 @@ pattern              frame 7             rule
 ``plate.@@@@.exr``   ``plate.0007.exr``  each ``@`` is one digit (Nuke, oiiotool)
 ``plate.%04d.exr``   ``plate.0007.exr``  printf: ``%0Nd`` pads to N digits, ``%d`` does not pad
 ``plate.#.exr``      ``plate.7.exr``     one ``#``: no padding
+``plate.$F4.exr``    ``plate.0007.exr``  Houdini: ``$FN`` pads to N digits (fileseq reads it too)
 ===================  ==================  =============================================================
 
-Note that oiiotool reads a single ``#`` as *four* digits; vfxstereo follows Nuke and Blender, where
-``####`` is four digits, so a pattern means the same in vfxstereo, Nuke and Blender. Frames with more
-digits than the padding are written in full (``####`` with frame 12345 gives ``12345``). Negative frame
-numbers are not supported.
+fileseq's own default reads ``#`` as *four* digits (as oiiotool does); vfxstereo parses with
+``fileseq.PAD_STYLE_HASH1``, where ``####`` is four digits, so a pattern means the same in vfxstereo, Nuke
+and Blender. Frames with more digits than the padding are written in full (``####`` with frame 12345 gives
+``12345``). Negative frame numbers are not supported.
 
 Frame ranges (:func:`parse_frames`): ``"1001-1100"``, ``"1001-1100x2"`` (every second frame),
-``"1,5,10-12"``, or a single ``"1001"``.
+``"1,5,10-12"``, or a single ``"1001"``; and fileseq's ``"1-10y3"`` (the frames ``1-10x3`` leaves out).
+``"A-B:S"`` is refused: fileseq reads it as every frame of A-B in a staggered order, OpenJD (Deadline Cloud)
+as every S-th frame, and a farm chunk read the wrong way would redo other chunks' frames.
 """
 
 from __future__ import annotations
@@ -27,9 +30,18 @@ import re
 from collections.abc import Iterable
 from dataclasses import dataclass
 
+import fileseq
+
 from vfxstereo.errors import VfxStereoError
 
-_TOKEN = re.compile(r"#+|@+|%(0\d+)?d")
+PAD_STYLE = fileseq.PAD_STYLE_HASH1
+"""fileseq's padding style for our patterns: each ``#`` and each ``@`` is one digit."""
+
+_TOKEN = re.compile(r"#+|@+|%0?\d*d|\$F\d*")
+"""One frame token, as fileseq reads it (hash, at, printf and Houdini styles)."""
+
+_RANGE_ITEM = re.compile(r"(?P<start>\d+)(?:-(?P<end>\d+)(?:(?P<mode>[xy])(?P<step>\d+))?)?")
+"""One comma-separated item of a frame range, as we accept it: whole, non-negative frame numbers."""
 
 
 @dataclass(frozen=True)
@@ -47,25 +59,21 @@ class FramePattern:
             raise VfxStereoError(f"negative frame numbers are not supported (frame {frame})")
         return f"{self.head}{frame:0{self.padding}d}{self.tail}"
 
-    def match(self, name: str) -> int | None:
-        """The frame number of file path ``name`` if it belongs to the sequence, else None."""
-        if not (name.startswith(self.head) and name.endswith(self.tail)):
-            return None
-        digits = name[len(self.head):len(name) - len(self.tail)]
-        if not digits.isascii() or not digits.isdigit():
-            return None
-        frame = int(digits)
-        return frame if f"{frame:0{self.padding}d}" == digits else None
 
-
-def _tokens(pattern: str) -> list[re.Match]:
-    folder_len = len(os.path.dirname(pattern))
-    return [m for m in _TOKEN.finditer(pattern) if m.start() >= folder_len]
+def _sequence(pattern: str) -> fileseq.FileSequence | None:
+    """The file name of ``pattern`` as fileseq reads it (not the folder: a ``#`` there is no token)."""
+    try:
+        return fileseq.FileSequence(os.path.basename(pattern), pad_style=PAD_STYLE)
+    except fileseq.ParseException:
+        return None
 
 
 def is_pattern(s) -> bool:
-    """True if the file name in ``s`` holds a frame token (``#``, ``@`` or ``%0Nd``)."""
-    return bool(_tokens(os.fspath(s)))
+    """True if the file name in ``s`` holds a frame token (``#``, ``@``, ``%0Nd`` or ``$FN``)."""
+    s = os.fspath(s)
+    seq = _sequence(s)
+    # fileseq also reads a plain frame file ("a.0001.exr") as a sequence: a token must be written in the name
+    return bool(seq is not None and _TOKEN.search(seq.padding()) and _TOKEN.search(os.path.basename(s)))
 
 
 def parse_pattern(pattern) -> FramePattern:
@@ -74,21 +82,21 @@ def parse_pattern(pattern) -> FramePattern:
     Raises
     ------
     VfxStereoError
-        If the file name holds no frame token, or more than one.
+        If the file name holds no frame token, more than one, or a frame range (give that as ``--frames``).
     """
     pattern = os.fspath(pattern)
-    tokens = _tokens(pattern)
-    if not tokens:
-        raise VfxStereoError(f"{pattern!r} is not a frame pattern (use ####, @@@@ or %04d in the file name)")
+    folder, name = os.path.split(pattern)
+    tokens = _TOKEN.findall(name)
     if len(tokens) > 1:
         raise VfxStereoError(f"{pattern!r} has {len(tokens)} frame tokens; use exactly one")
-    m = tokens[0]
-    text = m.group(0)
-    if text.startswith("%"):
-        padding = int(m.group(1)) if m.group(1) else 1  # %0Nd or %d
-    else:
-        padding = len(text)  # one digit per # or @
-    return FramePattern(pattern[: m.start()], padding, pattern[m.end():])
+    seq = _sequence(pattern)
+    if seq is None or not tokens or _TOKEN.fullmatch(seq.padding()) is None:
+        raise VfxStereoError(f"{pattern!r} is not a frame pattern (use ####, @@@@ or %04d in the file name)")
+    if seq.frameSet() is not None:
+        raise VfxStereoError(f"{pattern!r} holds a frame range; give the range as --frames and the pattern "
+                             f"without it")
+    head = os.path.join(folder, seq.basename()) if folder else seq.basename()
+    return FramePattern(head, fileseq.getPaddingNum(seq.padding(), pad_style=PAD_STYLE), seq.extension())
 
 
 def frame_path(pattern, frame: int) -> str:
@@ -116,14 +124,26 @@ def expand(pattern, frames) -> list[str]:
     return [p.path(f) for f in frames]
 
 
-def _int(text: str, spec: str) -> int:
-    text = text.strip()
-    if text.startswith("-"):
+_RANGE_HELP = "use e.g. 1001-1100, 1001-1100x2 or 1,5,10-12"
+
+
+def _check_item(item: str, spec: str) -> None:
+    """Our rules on one item of a range, before fileseq expands it: the errors a user can act on."""
+    m = _RANGE_ITEM.fullmatch(item)
+    if m is not None:
+        if m["end"] is not None and int(m["end"]) < int(m["start"]):
+            raise VfxStereoError(f"bad frame range {spec!r}: {m['end']} comes before {m['start']}")
+        if m["step"] is not None and int(m["step"]) < 1:
+            raise VfxStereoError(f"bad frame range {spec!r}: the step must be at least 1")
+        return
+    if ":" in item:  # fileseq: staggered order (as a set, the whole range); OpenJD (Deadline Cloud): a step
+        raise VfxStereoError(f"bad frame range {spec!r}: A-B:S means a step to some tools and every frame to "
+                             f"others; write A-BxS for every S-th frame")
+    if item.startswith("-") or "--" in item:
         raise VfxStereoError(f"negative frame numbers are not supported: {spec!r}")
-    if not (text.isascii() and text.isdigit()):
-        raise VfxStereoError(f"bad frame range {spec!r}: {text!r} is not a frame number "
-                             "(use e.g. 1001-1100, 1001-1100x2 or 1,5,10-12)")
-    return int(text)
+    if re.fullmatch(r"\d+[xy]\d+", item):
+        raise VfxStereoError(f"bad frame range {spec!r}: a step needs a range (A-BxS)")
+    raise VfxStereoError(f"bad frame range {spec!r}: {item!r} is not a frame number or range ({_RANGE_HELP})")
 
 
 def parse_frames(spec: str) -> list[int]:
@@ -132,38 +152,25 @@ def parse_frames(spec: str) -> list[int]:
     Returns
     -------
     list of int, sorted, without repeats. ``"A-BxS"`` runs from A to B (inclusive when it lands on B) in
-    steps of S.
+    steps of S. fileseq expands the range; we only refuse what vfxstereo does not support.
 
     Raises
     ------
     VfxStereoError
-        Empty or malformed ranges, an end before its start, a step below 1, negative frames.
+        Empty or malformed ranges, an end before its start, a step below 1, negative or fractional frames.
     """
-    frames: set[int] = set()
     text = str(spec).strip()
     if not text:
         raise VfxStereoError("empty frame range")
-    for part in text.split(","):
-        part = part.strip()
-        if not part:
+    for item in text.split(","):
+        if not item.strip():
             raise VfxStereoError(f"bad frame range {spec!r}: empty item")
-        step = 1
-        if "x" in part:
-            part, step_text = part.split("x", 1)
-            step = _int(step_text, spec)
-            if step < 1:
-                raise VfxStereoError(f"bad frame range {spec!r}: the step must be at least 1")
-        if "-" in part.lstrip("-"):
-            start_text, end_text = part.rsplit("-", 1) if not part.startswith("-") else ("-", "")
-            start, end = _int(start_text, spec), _int(end_text, spec)
-            if end < start:
-                raise VfxStereoError(f"bad frame range {spec!r}: {end} comes before {start}")
-            frames.update(range(start, end + 1, step))
-        else:
-            if step != 1:
-                raise VfxStereoError(f"bad frame range {spec!r}: a step needs a range (A-BxS)")
-            frames.add(_int(part, spec))
-    return sorted(frames)
+        _check_item(item.strip(), spec)
+    try:
+        frame_set = fileseq.FrameSet(",".join(item.strip() for item in text.split(",")))
+    except (fileseq.ParseException, fileseq.MaxSizeException) as exc:
+        raise VfxStereoError(f"bad frame range {spec!r}: {str(exc).splitlines()[0]}") from None
+    return sorted({int(f) for f in frame_set})
 
 
 def find_frames(pattern) -> list[int]:
@@ -177,18 +184,23 @@ def find_frames(pattern) -> list[int]:
     VfxStereoError
         If ``pattern`` is not a pattern, or no file matches it.
     """
+    pattern = os.fspath(pattern)
     p = parse_pattern(pattern)
-    folder = os.path.dirname(p.head) or "."
-    prefix = os.path.basename(p.head)
+    folder, prefix = os.path.split(p.head)
+    folder = folder or "."
     try:
-        names = os.listdir(folder)
+        names = set(os.listdir(folder))
     except OSError:
-        raise VfxStereoError(f"no files match {os.fspath(pattern)!r}: folder {folder!r} not found") from None
+        raise VfxStereoError(f"no files match {pattern!r}: folder {folder!r} not found") from None
+    # fileseq groups the folder's names into sequences (its findSequenceOnDisk would also read a # or @ in
+    # the folder's name as padding); a frame is ours when the pattern writes exactly that name back
     local = FramePattern(prefix, p.padding, p.tail)
-    frames = sorted(f for f in (local.match(n) for n in names) if f is not None)
-    if not frames:
-        raise VfxStereoError(f"no files match {os.fspath(pattern)!r}")
-    return frames
+    found = {int(f) for seq in fileseq.findSequencesInList(sorted(names), pad_style=PAD_STYLE)
+             if seq.basename() == prefix and seq.extension() == p.tail
+             for f in (seq.frameSet() or ()) if int(f) >= 0 and local.path(int(f)) in names}
+    if not found:
+        raise VfxStereoError(f"no files match {pattern!r}")
+    return sorted(found)
 
 
 def existing(pattern, frames: Iterable[int] | str) -> list[str]:
@@ -204,3 +216,8 @@ def existing(pattern, frames: Iterable[int] | str) -> list[str]:
         if not os.path.isfile(path):
             raise VfxStereoError(f"frame file not found: {path}")
     return paths
+
+
+def frame_range(frames: Iterable[int]) -> str:
+    """Frame numbers as a compact fileseq range (``[1001, 1002, 1003, 1007]`` -> ``"1001-1003,1007"``)."""
+    return fileseq.framesToFrameRange(sorted(frames), sort=False)
