@@ -57,6 +57,7 @@ import dataclasses
 from dataclasses import dataclass, field
 
 from vfxstereo import aggregate as _aggregate
+from vfxstereo import depth as _depth
 from vfxstereo import refine as _refine
 from vfxstereo import select as _select
 from vfxstereo.errors import VfxStereoError
@@ -74,6 +75,13 @@ class SolveConfig:
     except ``lambdas`` (:data:`LAMBDAS`, see the module notes); they make the ``paper`` preset.
     """
 
+    # Depth: the paper's variance sweep and thresholded selection, or the robust multi-view stage
+    depth: str = "variance"
+    """How the front surface is found: ``"variance"`` (the paper: Eq. 1 sweep, Eq. 2, thresholded selection
+    and visibility passes) or ``"robust"`` (beyond the paper: AD-census over all views, semi-global matching,
+    visibility from the depth map; :mod:`vfxstereo.depth`, then :mod:`vfxstereo.layers`)."""
+    depth_config: _depth.DepthConfig = field(default_factory=_depth.DepthConfig)
+    """Settings of the robust depth stage (``depth="robust"``)."""
     # Sweep (Eq. 1)
     matching: str = "srgb"
     """Values the variance is computed on: "srgb" (display-encoded, like the paper's 8-bit data) or "linear"."""
@@ -185,6 +193,7 @@ class SolveConfig:
         """Plain-JSON form, recorded in the stack's metadata."""
         d = dataclasses.asdict(self)
         d["lambdas"] = list(self.lambdas)
+        d["depth_config"]["matching"]["census_radius"] = list(self.depth_config.matching.census_radius)
         return d
 
     @classmethod
@@ -221,5 +230,10 @@ PRESETS: dict[str, dict] = {
     "fig6c": {"lambdas": (1.0, 1.0, 0.0)},
     "fig6d": {"lambdas": (50.0, 1.0, 50.0)},
     "fig6e": {"lambdas": (50.0, 1.0, 100.0)},
-    "zkey": {"edge_matting": True},
+    "robust": {"depth": "robust", "refine_iterations": 0, "edge_matting": True},
 }
+PRESETS["zkey"] = PRESETS["robust"]  # the z-keying default, by its old name
+
+DEFAULT_PRESET = "robust"
+"""The configuration of :func:`vfxstereo.solve` without a config, and of ``vfxstereo solve`` without --preset:
+the best measured for z-keying real plates (benchmarks/zkey_scenes.py, benchmarks/middlebury.py)."""

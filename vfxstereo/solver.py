@@ -203,6 +203,11 @@ def solve(views, *, positions=None, reference: int | None = None, disparities, c
         timings[stage] = timings.get(stage, 0.0) + time.perf_counter() - t0
         return out
 
+    if config.depth == "robust":
+        return _solve_robust(views, warper, camera, disparities, config, progress=progress, white=white,
+                             timed=timed, timings=timings, return_details=return_details)
+    if config.depth != "variance":
+        raise VfxStereoError(f"unknown depth method {config.depth!r}; choose 'variance' or 'robust'")
     agg_settings = ({"a": config.a, "b": config.b, "c": config.c, "sigma_max": config.sigma_max,
                      "iterations": config.aggregation_iterations, "limit_centre": config.limit_centre,
                      "progress": progress}
@@ -288,3 +293,46 @@ def solve(views, *, positions=None, reference: int | None = None, disparities, c
         return stack
     return SolveResult(stack=stack, disparity=disparity, winners=sel.winner, initial=initial, selected=selected,
                        hidden=hidden, timings=timings)
+
+
+def _solve_robust(views, warper, camera, disparities, config, *, progress, white, timed, timings, return_details):
+    """``solve`` with the robust depth stage (:mod:`vfxstereo.depth`) in place of the paper's sections 4-5.
+
+    depth -> initial volume (front surface and hidden layers, :mod:`vfxstereo.layers`) -> refinement (Eqs.
+    9-13, A2, if the configuration asks for it) -> edge matting.
+    """
+    from vfxstereo import depth, layers, refine
+
+    ref_view = camera.reference_index
+    if ref_view is None:
+        raise VfxStereoError("the robust depth stage needs the virtual camera at one of the views "
+                             "(a reference view); use the paper's depth (preset 'paper') for a virtual camera")
+    plate = views[ref_view]
+    res = timed("depth", depth.robust_depth, views, warper, ref_view, config=config.depth_config,
+                progress=progress)
+    for name, seconds in res.timings.items():
+        timings[f"depth.{name}"] = seconds
+    index = layers.plane_index(res.disparity, disparities)
+    front = timed("layers", layers.front_volume, index, plate, len(disparities))
+    hidden = timed("layers", layers.hidden_volume, views, warper, ref_view, res.disparity, index)
+    report(progress, "layers", 1, 1)
+    initial = front + hidden  # disjoint: hidden cells lie strictly behind the front ones
+    rgba = initial
+    if config.refine_iterations > 0 and any(config.lambdas):
+        rgba = timed("refine", refine.refine, initial, disparities, views, warper,
+                     config.refine_config(white=white), progress=progress)
+    if config.edge_matting:
+        from vfxstereo import matting
+
+        rgba = timed("matting", matting.matte_edges, rgba, disparities, views, warper, white=white,
+                     progress=progress)
+    stack = LayerStack(rgba, disparities, camera, metadata={
+        "solver": "vfxstereo-robust",
+        "settings": config.to_dict(),
+        "hidden_cells": int((hidden[..., 3] > 0).sum()),
+        "colorspace": "scene-linear Rec.709",
+    }, white=white, plate=plate)
+    if not return_details:
+        return stack
+    return SolveResult(stack=stack, disparity=res.disparity, winners=index, initial=initial, selected=initial,
+                       hidden=None, timings=timings)

@@ -109,6 +109,46 @@ class Warper:
         return _dehomogenise(P[:, 0, None, None] * xs + P[:, 1, None, None] * ys + P[:, 2, None, None]
                              + P[:, 3, None, None] * d)
 
+    def points_to_view(self, k: int, xs, ys, i) -> tuple[np.ndarray, np.ndarray]:
+        """Where reference points ``(xs, ys)`` on planes ``i`` (one index per point) land in view ``k``:
+        ``(u, v)`` float64 arrays (Eq. A1; NaN behind the view)."""
+        xs, ys, i = (np.asarray(a) for a in (xs, ys, i))
+        if self._general is None:
+            off = self.camera.view_offset(k)
+            d = self.disparities[i]
+            return xs - d * off[0], ys - d * off[1]
+        u = np.full(xs.shape, np.nan)
+        v = np.full(xs.shape, np.nan)
+        for j in np.unique(i):
+            sel = i == j
+            q = self._general.homography(k, int(j)) @ np.stack([xs[sel], ys[sel], np.ones(sel.sum())])
+            front = q[2] > 1e-12
+            u[sel] = np.where(front, q[0] / np.where(front, q[2], 1.0), np.nan)
+            v[sel] = np.where(front, q[1] / np.where(front, q[2], 1.0), np.nan)
+        return u, v
+
+    def transfer(self, k: int, xs, ys, i, j) -> tuple[np.ndarray, np.ndarray]:
+        """The reference position on plane ``j`` that view ``k`` sees through reference point ``(xs, ys)`` of
+        plane ``i`` (one plane pair per point): plane i into view k, then back out onto plane j."""
+        xs, ys, i, j = (np.asarray(a) for a in (xs, ys, i, j))
+        if self._general is None:
+            off = self.camera.view_offset(k)
+            dd = self.disparities[i] - self.disparities[j]
+            return xs - dd * off[0], ys - dd * off[1]
+        u, v = self.points_to_view(k, xs, ys, i)
+        X = np.full(xs.shape, np.nan)
+        Y = np.full(xs.shape, np.nan)
+        for jj in np.unique(j):
+            sel = j == jj
+            try:
+                Hinv = np.linalg.inv(self._general.homography(k, int(jj)))
+            except np.linalg.LinAlgError:
+                continue
+            q = Hinv @ np.stack([u[sel], v[sel], np.ones(sel.sum())])
+            X[sel] = q[0] / q[2]
+            Y[sel] = q[1] / q[2]
+        return X, Y
+
     def coverage(self, k: int, i: int) -> np.ndarray:
         """(H, W) float32 in [0, 1]: how much of each plane-``i`` cell's bilinear footprint lies in view ``k``."""
         key = (k, i)

@@ -1,0 +1,58 @@
+"""numba kernel of :mod:`vfxstereo.softedge` (foreground colour samples for the single-view alpha estimate)."""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True, nogil=True)
+def colour_alpha(ys, xs, fplane, index, solid, plate, background, max_steps, alpha_out, sep_out, dist_out):
+    """Alpha of band pixel n from the plate and its background, with the foreground colour sampled nearby.
+
+    For each of 8 directions, the nearest ``solid`` pixel (at most ``max_steps`` away) whose plane ``index``
+    equals the pixel's front plane ``fplane[n]`` is a foreground sample F. With the background B of the pixel,
+    ``alpha = clip((I - B) . (F - B) / |F - B|^2, 0, 1)`` and the sample that explains the plate best
+    (least ``|I - alpha F - (1 - alpha) B|^2``) wins. Outputs alpha, ``|F - B|^2`` (how well colour separates
+    the layers) and the residual; -1 alpha where no sample was found.
+    """
+    H, W = index.shape
+    n_px = ys.shape[0]
+    for n in range(n_px):
+        y = ys[n]
+        x = xs[n]
+        f = fplane[n]
+        best = np.inf
+        alpha_out[n] = -1.0
+        sep_out[n] = 0.0
+        dist_out[n] = np.inf
+        for r in range(8):
+            dy = (0, 0, 1, -1, 1, 1, -1, -1)[r]
+            dx = (1, -1, 0, 0, 1, -1, 1, -1)[r]
+            yy = y + dy
+            xx = x + dx
+            steps = 1
+            while 0 <= yy < H and 0 <= xx < W and steps <= max_steps and not (solid[yy, xx] and index[yy, xx] == f):
+                yy += dy
+                xx += dx
+                steps += 1
+            if not (0 <= yy < H and 0 <= xx < W) or steps > max_steps:
+                continue
+            num = 0.0
+            den = 0.0
+            for c in range(3):
+                fb = plate[yy, xx, c] - background[n, c]
+                num += (plate[y, x, c] - background[n, c]) * fb
+                den += fb * fb
+            if den < 1e-8:
+                continue
+            a = min(max(num / den, 0.0), 1.0)
+            dist = 0.0
+            for c in range(3):
+                e = plate[y, x, c] - a * plate[yy, xx, c] - (1.0 - a) * background[n, c]
+                dist += e * e
+            if dist < best:
+                best = dist
+                alpha_out[n] = a
+                sep_out[n] = den
+                dist_out[n] = dist

@@ -1,0 +1,96 @@
+"""The initial RGBA volume from a depth map: the front surface, and the hidden layers behind it that other views
+see (beyond the paper: the paper selects cells by thresholded winner-take-all, Section 4).
+
+* **Front surface.** Each reference pixel becomes one opaque cell on the plane nearest its disparity, with the
+  reference view's own colour (the plate), so the flattened volume *is* the plate.
+* **Hidden layers.** Where a view sees past a foreground edge, it records background the reference does not.
+  The depth map, forward-projected into view k (a z-buffer, :func:`vfxstereo.depth.zbuffer`), leaves exactly
+  those view pixels uncovered: nothing the reference sees lands there. Their disparity is taken from the
+  farther of the covered pixels around them (:func:`vfxstereo.depth.fill_unreliable`: a disocclusion shows
+  the background, never a nearer surface), and their colours are carried onto that plane through the
+  Warper (Eq. 1). Cells reached from several views get the mean; only cells strictly behind the front
+  surface of their pixel are kept.
+
+The volume's opacities are 0 or 1; soft edges come later (:mod:`vfxstereo.matting`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vfxstereo.errors import VfxStereoError
+
+MIN_WEIGHT = 0.5
+"""A hidden cell needs at least this much resampled weight (of its bilinear footprint) from uncovered pixels."""
+
+
+def plane_index(disparity: np.ndarray, disparities: np.ndarray) -> np.ndarray:
+    """Index of the plane nearest each disparity (int32, NaN -> -1)."""
+    d = np.asarray(disparities, np.float64)
+    x = np.asarray(disparity, np.float64)
+    idx = np.clip(np.searchsorted(d, x), 1, len(d) - 1) if len(d) > 1 else np.zeros(x.shape, np.int64)
+    if len(d) > 1:
+        idx = np.where(np.abs(x - d[idx - 1]) <= np.abs(d[idx] - x), idx - 1, idx)
+    return np.where(np.isfinite(x), idx, -1).astype(np.int32)
+
+
+def front_volume(index: np.ndarray, plate: np.ndarray, n_planes: int) -> np.ndarray:
+    """(D, H, W, 4) premultiplied: opaque plate colour on each pixel's plane ``index`` (-1: nothing)."""
+    h, w = index.shape
+    if plate.shape[:2] != (h, w):
+        raise VfxStereoError(f"the plate {plate.shape[:2]} and the depth map {(h, w)} differ in size")
+    vol = np.zeros((n_planes, h, w, 4), np.float32)
+    ys, xs = np.nonzero(index >= 0)
+    vol[index[ys, xs], ys, xs, :3] = plate[ys, xs, :3]
+    vol[index[ys, xs], ys, xs, 3] = 1.0
+    return vol
+
+
+def hidden_volume(views: np.ndarray, warper, reference: int, disparity: np.ndarray, index: np.ndarray,
+                  *, guide: np.ndarray | None = None) -> np.ndarray:
+    """(D, H, W, 4) premultiplied: opaque cells behind the front surface, coloured by the views that see them.
+
+    Parameters
+    ----------
+    views : ndarray of shape (K, H, W, 3)
+        Scene-linear views.
+    warper : vfxstereo.warp.Warper
+    reference : int
+        The view the depth map belongs to.
+    disparity : ndarray of shape (H, W)
+        The reference's sub-pixel disparity (the front surface).
+    index : ndarray of shape (H, W)
+        The front surface's plane per pixel (:func:`plane_index` of ``disparity``).
+    guide : ndarray of shape (K, H, W), optional
+        Grey images of the views for the edge-aware fill (default: the views' luma).
+    """
+    from vfxstereo.depth import fill_unreliable, zbuffer
+    from vfxstereo.matching import grey
+
+    K, h, w = views.shape[:3]
+    D = warper.D
+    total = np.zeros((D, h, w, 3), np.float32)
+    weight = np.zeros((D, h, w), np.float32)
+    for k in range(K):
+        if k == reference:
+            continue
+        zb = zbuffer(warper, disparity, k)
+        covered = np.isfinite(zb)
+        if covered.all() or not covered.any():
+            continue
+        g = guide[k] if guide is not None else grey(views[k])
+        behind = fill_unreliable(np.where(covered, zb, 0.0), covered, g)
+        hole_plane = np.where(covered, -1, plane_index(behind, warper.disparities))
+        for i in np.unique(hole_plane[hole_plane >= 0]):
+            m = (hole_plane == i).astype(np.float32)
+            wt = warper.to_plane(m, k, int(i))
+            if not (wt > MIN_WEIGHT).any():
+                continue
+            total[i] += warper.to_plane(views[k] * m[..., None], k, int(i))
+            weight[i] += wt
+    n = np.maximum(weight, 1e-6)
+    keep = (weight > MIN_WEIGHT) & (np.arange(D)[:, None, None] < index[None])
+    vol = np.zeros((D, h, w, 4), np.float32)
+    vol[..., :3] = np.where(keep[..., None], total / n[..., None], 0.0)
+    vol[..., 3] = keep
+    return vol

@@ -1,0 +1,471 @@
+"""Production-like multi-view plates with exact z-key ground truth, for benchmarks and tests.
+
+The scenes of :mod:`vfxstereo.samples` are stacks of fronto-parallel layers on the solver's own planes, so the
+solver can fit them exactly. These are harder, closer to what a camera array records:
+
+* **planar layers, slanted or not, at any disparity**: each layer is premultiplied RGBA on a 3-D plane, whose
+  disparity is affine in the image, ``d(x, y) = d0 + gx (x - cx) + gy (y - cy)`` (a plane's inverse depth is
+  affine in a pinhole image), so it falls between the solver's planes and spans several of them;
+* **real soft edges**: hair, fur and thin structures with holes from the alpha-matting set (exact alpha), a
+  procedural fence, Middlebury photographs, a low-texture painted wall;
+* **content beyond the frame**: layers are built on a canvas wider than the reference view, so the other
+  views see what the reference does not;
+* **camera differences**: each view other than the reference has its own exposure gain and the lens'
+  vignetting moves with the content; every view has read and shot noise.
+
+A view is rendered layer by layer: for a view at offset ``p`` (view steps), the view pixel ``(u, v)`` sees the
+layer point ``(x, y)`` with ``x - d(x, y) p_x = u`` and ``y - d(x, y) p_y = v``, an affine map solved exactly
+and sampled bilinearly; the layers are composited back to front (they never cross, by construction).
+
+The ground-truth comp of an element at disparity ``D`` in the reference view puts, pixel by pixel, the layers
+with ``d(x, y) > D`` in front of it and the rest behind: ``front over element over back``, plus the plate's
+noise where plate light survives, ``n (1 - (1 - A_F) A_E)``, so that the true comp equals the plate wherever
+the element is empty.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import ndimage
+
+from vfxstereo.errors import VfxStereoError
+from vfxstereo.stack import over
+
+
+@dataclass
+class PlanarLayer:
+    """Premultiplied RGBA on a plane: ``rgba`` on the scene canvas, disparity ``d0 + gx (x - cx) + gy (y - cy)``
+    in canvas pixels around the canvas centre."""
+
+    name: str
+    rgba: np.ndarray  # (Hc, Wc, 4) float32 premultiplied, on the canvas
+    d0: float
+    gx: float = 0.0
+    gy: float = 0.0
+
+    def disparity(self, xs: np.ndarray, ys: np.ndarray, centre: tuple[float, float]) -> np.ndarray:
+        """Disparity at canvas coordinates."""
+        return self.d0 + self.gx * (xs - centre[1]) + self.gy * (ys - centre[0])
+
+
+@dataclass
+class Scene:
+    """Layers (back to front) seen by K views at ``positions`` (view steps), the reference at ``reference``.
+
+    ``margin`` canvas pixels surround the reference frame on every side. ``gains`` and ``vignetting`` model the
+    cameras; ``noise`` is ``(read sigma, shot factor)``: a view gets ``N(0, read^2 + shot * value)``.
+    """
+
+    name: str
+    layers: list[PlanarLayer]
+    positions: np.ndarray
+    reference: int
+    margin: int
+    gains: np.ndarray
+    vignetting: float = 0.0
+    noise: tuple[float, float] = (0.0, 0.0)
+    seed: int = 0
+    description: str = ""
+    elements: dict = field(default_factory=dict)
+    """Named z-key tests: ``{name: (element (H, W, 4), D)}``."""
+    _cache: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def canvas_shape(self) -> tuple[int, int]:
+        return self.layers[0].rgba.shape[:2]
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """``(H, W)`` of the views."""
+        hc, wc = self.canvas_shape
+        return hc - 2 * self.margin, wc - 2 * self.margin
+
+    @property
+    def K(self) -> int:  # noqa: N802 - the paper's symbol
+        return len(self.positions)
+
+    def _centre(self) -> tuple[float, float]:
+        hc, wc = self.canvas_shape
+        return (hc - 1) / 2.0, (wc - 1) / 2.0
+
+    def _crop(self, img: np.ndarray) -> np.ndarray:
+        m = self.margin
+        return img[m:img.shape[0] - m, m:img.shape[1] - m]
+
+    def layer_in_view(self, layer: PlanarLayer, offset) -> np.ndarray:
+        """``layer`` as the view at ``offset`` (view steps, x or (x, y)) sees it, on the canvas."""
+        px, py = (float(offset), 0.0) if np.ndim(offset) == 0 else (float(offset[0]), float(offset[1]))
+        hc, wc = self.canvas_shape
+        cy, cx = self._centre()
+        if px == 0 and py == 0:
+            return layer.rgba
+        # u = x - (d0 + gx (x - cx) + gy (y - cy)) px  ->  solve the 2x2 affine system for (x, y)
+        A = np.array([[1.0 - layer.gx * px, -layer.gy * px], [-layer.gx * py, 1.0 - layer.gy * py]])
+        b0 = np.array([(layer.d0 - layer.gx * cx - layer.gy * cy) * px,
+                       (layer.d0 - layer.gx * cx - layer.gy * cy) * py])
+        Ainv = np.linalg.inv(A)
+        vs, us = np.mgrid[0:hc, 0:wc].astype(np.float64)
+        x = Ainv[0, 0] * (us + b0[0]) + Ainv[0, 1] * (vs + b0[1])
+        y = Ainv[1, 0] * (us + b0[0]) + Ainv[1, 1] * (vs + b0[1])
+        out = np.empty_like(layer.rgba)
+        for c in range(4):
+            out[..., c] = ndimage.map_coordinates(layer.rgba[..., c], [y, x], order=1, mode="constant", cval=0.0)
+        return out
+
+    def clean_view(self, k: int) -> np.ndarray:
+        """View ``k`` without camera effects: (H, W, 3) scene-linear (alpha is 1 by construction)."""
+        key = ("clean", k)
+        if key not in self._cache:
+            off = self.positions[k] - self.positions[self.reference]
+            acc = None
+            for layer in self.layers:
+                seen = self.layer_in_view(layer, off)
+                acc = seen.copy() if acc is None else over(seen, acc)
+            self._cache[key] = np.ascontiguousarray(self._crop(acc)[..., :3])
+        return self._cache[key]
+
+    def _noise(self, k: int, clean: np.ndarray) -> np.ndarray:
+        read, shot = self.noise
+        rng = np.random.default_rng([self.seed, k])
+        sigma = np.sqrt(read**2 + shot * np.clip(clean, 0.0, None))
+        return (rng.standard_normal(clean.shape) * sigma).astype(np.float32)
+
+    def _vignette(self, k: int) -> np.ndarray:
+        h, w = self.shape
+        ys, xs = np.mgrid[0:h, 0:w]
+        r2 = ((xs - (w - 1) / 2) / ((w - 1) / 2)) ** 2 * 0.5 + ((ys - (h - 1) / 2) / ((h - 1) / 2)) ** 2 * 0.5
+        return (1.0 - self.vignetting * r2).astype(np.float32)[..., None]
+
+    def view(self, k: int) -> np.ndarray:
+        """View ``k`` as the camera records it (gain, vignetting relative to the reference, noise)."""
+        clean = self.clean_view(k)
+        out = clean if k == self.reference else clean * np.float32(self.gains[k]) * self._vignette(k)
+        return np.clip(out + self._noise(k, out), 0.0, None).astype(np.float32)
+
+    def views(self) -> np.ndarray:
+        """(K, H, W, 3) float32, all views as recorded."""
+        return np.stack([self.view(k) for k in range(self.K)])
+
+    @property
+    def plate(self) -> np.ndarray:
+        """The reference view as recorded."""
+        return self.view(self.reference)
+
+    def layer_disparities(self) -> list[np.ndarray]:
+        """Each layer's disparity over the reference frame, (H, W)."""
+        hc, wc = self.canvas_shape
+        ys, xs = np.mgrid[0:hc, 0:wc].astype(np.float64)
+        return [self._crop(layer.disparity(xs, ys, self._centre())).astype(np.float32) for layer in self.layers]
+
+    def reference_layers(self) -> list[np.ndarray]:
+        """Each layer's premultiplied RGBA over the reference frame."""
+        return [self._crop(layer.rgba) for layer in self.layers]
+
+    def gt_disparity(self, threshold: float = 0.5) -> np.ndarray:
+        """Disparity of the front-most layer whose alpha exceeds ``threshold`` at each reference pixel."""
+        out = np.full(self.shape, np.nan, np.float32)
+        for rgba, d in zip(self.reference_layers(), self.layer_disparities(), strict=True):
+            out = np.where(rgba[..., 3] > threshold, d, out)
+        return out
+
+    def disparity_range(self) -> tuple[float, float]:
+        ds = self.layer_disparities()
+        return float(min(d.min() for d in ds)), float(max(d.max() for d in ds))
+
+    def split(self, D) -> tuple[np.ndarray, np.ndarray]:
+        """True ``front`` (layers with ``d > D``) and ``back`` of the reference view, premultiplied."""
+        h, w = self.shape
+        front = np.zeros((h, w, 4), np.float32)
+        back = np.zeros((h, w, 4), np.float32)
+        for rgba, d in zip(self.reference_layers(), self.layer_disparities(), strict=True):
+            nearer = (d > D)[..., None]
+            front = np.where(nearer, over(rgba, front), front)
+            back = np.where(nearer, back, over(rgba, back))
+        return front, back
+
+    def comp(self, element: np.ndarray, D) -> np.ndarray:
+        """The true comp of ``element`` (premultiplied RGBA) at disparity ``D`` in the recorded plate (RGB)."""
+        front, back = self.split(D)
+        clean = over(front, over(element, back))[..., :3]
+        noise = self.plate - self.clean_view(self.reference)
+        survive = 1.0 - (1.0 - front[..., 3:4]) * element[..., 3:4]
+        return (clean + noise * survive).astype(np.float32)
+
+    def mixed(self, tol: float = 0.02) -> np.ndarray:
+        """Reference pixels where a layer with fractional alpha is visible (a soft edge)."""
+        h, w = self.shape
+        transmit = np.ones((h, w), np.float32)
+        mixed = np.zeros((h, w), bool)
+        for rgba in reversed(self.reference_layers()):
+            a = rgba[..., 3]
+            mixed |= (a > tol) & (a < 1.0 - tol) & (transmit > tol)
+            transmit = transmit * (1.0 - a)
+        return mixed
+
+    def band(self, dilate: int = 3) -> np.ndarray:
+        """The soft-edge band: :meth:`mixed` pixels dilated by ``dilate`` px."""
+        m = self.mixed()
+        if dilate > 0:
+            m = ndimage.binary_dilation(m, iterations=dilate)
+        return m
+
+
+# --------------------------------------------------------------------------------------------------------
+# Textures
+
+
+def painted_wall(shape, colour, rng: np.random.Generator, *, grain: float = 0.004) -> np.ndarray:
+    """A low-texture wall: one colour, a faint large-scale gradient and a paint grain of ``grain`` (linear)."""
+    h, w = shape
+    ys, xs = np.mgrid[0:h, 0:w].astype(np.float32)
+    gradient = 1.0 + 0.04 * (xs / w - 0.5) - 0.03 * (ys / h - 0.5)
+    img = np.asarray(colour, np.float32)[None, None, :] * gradient[..., None]
+    fine = ndimage.gaussian_filter(rng.standard_normal((h, w)).astype(np.float32), 1.0)
+    return np.clip(img * (1.0 + grain * fine / max(fine.std(), 1e-6))[..., None], 0.0, 1.0).astype(np.float32)
+
+
+def opaque(rgb: np.ndarray) -> np.ndarray:
+    """RGB to premultiplied RGBA with alpha 1."""
+    return np.concatenate([rgb, np.ones(rgb.shape[:2] + (1,), np.float32)], axis=-1).astype(np.float32)
+
+
+def fence(shape, *, spacing: float, thickness: float, angle: float, colour, rng: np.random.Generator,
+          supersample: int = 4) -> np.ndarray:
+    """A diagonal lattice of thin bars (anti-aliased coverage), premultiplied RGBA, with a wood-like grain."""
+    h, w = shape
+    ss = supersample
+    offs = (np.arange(ss) + 0.5) / ss - 0.5
+    y = (np.arange(h)[:, None] + offs[None, :]).reshape(-1)
+    x = (np.arange(w)[:, None] + offs[None, :]).reshape(-1)
+    t = np.deg2rad(angle)
+    a = np.cos(t) * x[None, :] + np.sin(t) * y[:, None]
+    b = -np.sin(t) * x[None, :] + np.cos(t) * y[:, None]
+    on = (np.abs((a % spacing) - spacing / 2) < thickness / 2) | (np.abs((b % spacing) - spacing / 2) < thickness / 2)
+    cover = on.reshape(h, ss, w, ss).mean(axis=(1, 3)).astype(np.float32)
+    grain = 1.0 + 0.25 * ndimage.gaussian_filter(rng.standard_normal((h, w)), (0.7, 4.0)).astype(np.float32)
+    rgb = np.clip(np.asarray(colour, np.float32)[None, None, :] * grain[..., None], 0.0, 1.0)
+    return np.concatenate([rgb * cover[..., None], cover[..., None]], axis=-1).astype(np.float32)
+
+
+def place(rgba: np.ndarray, canvas: tuple[int, int], top: int, left: int) -> np.ndarray:
+    """``rgba`` on an empty canvas with its corner at (top, left); what falls outside is cut off."""
+    out = np.zeros((*canvas, 4), np.float32)
+    h, w = rgba.shape[:2]
+    y0, x0 = max(top, 0), max(left, 0)
+    y1, x1 = min(top + h, canvas[0]), min(left + w, canvas[1])
+    if y1 <= y0 or x1 <= x0:
+        raise VfxStereoError("a layer placed outside the canvas")
+    out[y0:y1, x0:x1] = rgba[y0 - top:y1 - top, x0 - left:x1 - left]
+    return out
+
+
+def matte(image: str, height: int, *, data_dir=None, crop=None) -> np.ndarray:
+    """An alpha-matting foreground as premultiplied RGBA, ``height`` px tall (crop: fractions (y0, y1, x0, x1))."""
+    from vfxstereo.samples import _matte_layer, load_matte
+
+    fg, alpha = load_matte(image, data_dir=data_dir)
+    if crop is not None:
+        h, w = alpha.shape
+        y0, y1, x0, x1 = (int(round(f * n)) for f, n in zip(crop, (h, h, w, w), strict=True))
+        fg, alpha = fg[y0:y1, x0:x1], alpha[y0:y1, x0:x1]
+    width = int(round(alpha.shape[1] * height / alpha.shape[0]))
+    return _matte_layer(fg, alpha, size=(height, width), frame=(height, width))
+
+
+def photo(name: str, shape, *, data_dir=None) -> np.ndarray:
+    """A photograph (a Middlebury set's reference view, or an image file) covering ``shape``, scene-linear RGB."""
+    from vfxstereo.samples import load_background
+
+    return load_background(name, shape=shape, data_dir=data_dir)
+
+
+def card(shape, D_label: str = "", *, centre=None, size=None, angle: float = 20.0) -> np.ndarray:
+    """The CG element of the z-key tests: an anti-aliased checker card (:func:`vfxstereo.samples.cg_element`)."""
+    from vfxstereo.samples import cg_element
+
+    h, w = shape
+    if size is None:  # full frame
+        return cg_element((h, w), centre=(h / 2, w / 2), size=2.0 * np.hypot(h, w), angle=angle,
+                          checks=int(2 * np.hypot(h, w) / 24))
+    return cg_element((h, w), centre=centre, size=size, angle=angle)
+
+
+# --------------------------------------------------------------------------------------------------------
+# The benchmark's scenes
+
+SHAPE = (240, 320)
+"""(H, W) of the benchmark scenes' views."""
+MARGIN = 40
+"""Canvas pixels around the reference frame (more than the largest shift, 15 px x 2 steps)."""
+
+
+def _rig(K: int):
+    positions = np.arange(K, dtype=np.float64) - (K // 2 if K > 2 else 0)
+    reference = K // 2 if K > 2 else 0
+    return positions, reference
+
+
+def _gains(K: int, reference: int, rng) -> np.ndarray:
+    g = rng.uniform(0.92, 1.08, K)
+    g[reference] = 1.0
+    return g
+
+
+def _scene(name, layers, K, rng, description, elements_at, *, seed, noise=(0.003, 0.0004), vignetting=0.18):
+    positions, reference = _rig(K)
+    s = Scene(name=name, layers=layers, positions=positions, reference=reference, margin=MARGIN,
+              gains=_gains(K, reference, rng), vignetting=vignetting, noise=noise, seed=seed,
+              description=description)
+    h, w = s.shape
+    for D in elements_at:
+        s.elements[f"full card at d={D:g}"] = (card((h, w)), float(D))
+        s.elements[f"card at d={D:g}"] = (card((h, w), centre=(0.55 * h, 0.45 * w), size=0.55 * min(h, w)),
+                                          float(D))
+    return s
+
+
+SCENES = {}
+"""Scene builders by name: ``builder(K=5, data_dir=None) -> Scene``."""
+HELD_OUT = ("koala_slope", "artichoke_books", "flowers_fence")
+"""Scenes kept out of tuning: scored only at the end (benchmarks/zkey_scenes.py --held-out)."""
+
+
+def _register(fn):
+    SCENES[fn.__name__] = fn
+    return fn
+
+
+def _canvas() -> tuple[int, int]:
+    return SHAPE[0] + 2 * MARGIN, SHAPE[1] + 2 * MARGIN
+
+
+@_register
+def trolls_art(K: int = 5, data_dir=None) -> Scene:
+    """Troll hair (GT04) in front, a wire pencil holder (GT25, a mesh with holes) in the middle, the Art photo on
+    a slanted back wall."""
+    rng = np.random.default_rng(1)
+    cv = _canvas()
+    bg = PlanarLayer("Art wall", opaque(photo("middlebury2005_2006_halfsize/Art", cv, data_dir=data_dir)),
+                     2.6, gx=0.004)
+    mid = PlanarLayer("wire holder", place(matte("GT25", 230, data_dir=data_dir, crop=(0.1, 1.0, 0.3, 0.8)), cv,
+                                           70, 250), 7.4)
+    front = PlanarLayer("troll hair", place(matte("GT04", 250, data_dir=data_dir, crop=(0.0, 0.9, 0.0, 0.55)), cv,
+                                            10, 20), 12.6)
+    return _scene("trolls_art", [bg, mid, front], K, rng, trolls_art.__doc__, (10.0, 5.0), seed=1)
+
+
+@_register
+def wicker_wall(K: int = 5, data_dir=None) -> Scene:
+    """A wicker ball with holes (GT02) in front of a photo card (Books) on a low-texture painted wall."""
+    rng = np.random.default_rng(2)
+    cv = _canvas()
+    wall = PlanarLayer("painted wall", opaque(painted_wall(cv, (0.55, 0.52, 0.45), rng)), 1.3)
+    books = photo("middlebury2005_2006_halfsize/Books", (200, 170), data_dir=data_dir)
+    mid = PlanarLayer("books card", place(opaque(books), cv, 60, 260), 6.2, gy=0.01)
+    front = PlanarLayer("wicker ball", place(matte("GT02", 230, data_dir=data_dir), cv, 40, 40), 11.3)
+    return _scene("wicker_wall", [wall, mid, front], K, rng, wicker_wall.__doc__, (9.0, 4.0), seed=2)
+
+
+@_register
+def tree_cloth(K: int = 5, data_dir=None) -> Scene:
+    """A bonsai's thin branches and leaves (GT26) over a pumpkin (GT19) over a cloth (Cloth3), four depths with a
+    fence between pumpkin and cloth."""
+    rng = np.random.default_rng(3)
+    cv = _canvas()
+    cloth = PlanarLayer("cloth", opaque(photo("middlebury2005_2006_halfsize/Cloth3", cv, data_dir=data_dir)), 1.8)
+    fen = PlanarLayer("fence", fence(cv, spacing=26.0, thickness=2.2, angle=30.0, colour=(0.35, 0.22, 0.12),
+                                      rng=rng), 4.7)
+    pumpkin = PlanarLayer("pumpkin", place(matte("GT19", 150, data_dir=data_dir), cv, 140, 230), 8.1)
+    tree = PlanarLayer("bonsai", place(matte("GT26", 260, data_dir=data_dir, crop=(0.0, 0.8, 0.1, 0.9)), cv,
+                                       0, 30), 14.2)
+    return _scene("tree_cloth", [cloth, fen, pumpkin, tree], K, rng, tree_cloth.__doc__, (11.0, 6.5, 3.0), seed=3)
+
+
+@_register
+def doll_plant(K: int = 5, data_dir=None) -> Scene:
+    """A doll's hair (GT08) in front of a potted plant's leaves (GT13), a slanted textured floor-wall (Aloe) behind."""
+    rng = np.random.default_rng(4)
+    cv = _canvas()
+    bg = PlanarLayer("Aloe wall", opaque(photo("middlebury2005_2006_halfsize/Aloe", cv, data_dir=data_dir)),
+                     3.0, gy=0.008, gx=-0.003)
+    plant = PlanarLayer("plant", place(matte("GT13", 240, data_dir=data_dir, crop=(0.0, 0.75, 0.0, 1.0)), cv,
+                                       20, 180), 8.6)
+    doll = PlanarLayer("doll hair", place(matte("GT08", 260, data_dir=data_dir, crop=(0.0, 1.0, 0.0, 0.6)), cv,
+                                          40, 0), 13.4)
+    return _scene("doll_plant", [bg, plant, doll], K, rng, doll_plant.__doc__, (11.0, 6.0), seed=4)
+
+
+@_register
+def fur_grey_wall(K: int = 5, data_dir=None) -> Scene:
+    """A fluffy rabbit (GT15) and a teddy's fur (GT10) in front of a plain grey wall: soft edges against almost no
+    texture, the hardest case for the views to separate foreground from background."""
+    rng = np.random.default_rng(5)
+    cv = _canvas()
+    wall = PlanarLayer("grey wall", opaque(painted_wall(cv, (0.42, 0.42, 0.44), rng, grain=0.006)), 0.8)
+    teddy = PlanarLayer("teddy", place(matte("GT10", 200, data_dir=data_dir), cv, 120, 200), 6.8)
+    rabbit = PlanarLayer("rabbit", place(matte("GT15", 230, data_dir=data_dir, crop=(0.0, 1.0, 0.1, 0.8)), cv,
+                                         20, 30), 11.9)
+    return _scene("fur_grey_wall", [wall, teddy, rabbit], K, rng, fur_grey_wall.__doc__, (9.5, 3.5), seed=5)
+
+
+@_register
+def tassels_room(K: int = 5, data_dir=None) -> Scene:
+    """Hanging tassels (GT27, thin strands) in front of Eeyore's fur (GT24), the Laundry photo as a slanted wall."""
+    rng = np.random.default_rng(6)
+    cv = _canvas()
+    bg = PlanarLayer("Laundry", opaque(photo("middlebury2005_2006_halfsize/Laundry", cv, data_dir=data_dir)), 2.2,
+                     gx=0.006)
+    eeyore = PlanarLayer("eeyore", place(matte("GT24", 220, data_dir=data_dir), cv, 90, 170), 7.7)
+    tassels = PlanarLayer("tassels", place(matte("GT27", 200, data_dir=data_dir, crop=(0.0, 0.6, 0.0, 1.0)), cv,
+                                           0, 0), 14.6)
+    return _scene("tassels_room", [bg, eeyore, tassels], K, rng, tassels_room.__doc__, (11.0, 5.0), seed=6)
+
+
+@_register
+def koala_slope(K: int = 5, data_dir=None) -> Scene:
+    """(held out) The koala with its flag (GT16) over a wire holder (GT25) and a slanted low-texture wall."""
+    rng = np.random.default_rng(7)
+    cv = _canvas()
+    wall = PlanarLayer("slanted wall", opaque(painted_wall(cv, (0.6, 0.58, 0.5), rng)), 2.0, gx=0.01)
+    holder = PlanarLayer("holder", place(matte("GT25", 200, data_dir=data_dir, crop=(0.1, 1.0, 0.3, 0.8)), cv,
+                                         100, 40), 6.3)
+    koala = PlanarLayer("koala", place(matte("GT16", 230, data_dir=data_dir, crop=(0.0, 1.0, 0.0, 0.8)), cv,
+                                       30, 150), 12.2)
+    return _scene("koala_slope", [wall, holder, koala], K, rng, koala_slope.__doc__, (9.0, 4.0), seed=7)
+
+
+@_register
+def artichoke_books(K: int = 5, data_dir=None) -> Scene:
+    """(held out) The artichoke's fine hairs (GT11) over the Dolls photo card over the Books wall."""
+    rng = np.random.default_rng(8)
+    cv = _canvas()
+    books = PlanarLayer("Books", opaque(photo("middlebury2005_2006_halfsize/Books", cv, data_dir=data_dir)), 1.5)
+    dolls = photo("middlebury2005_2006_halfsize/Dolls", (180, 200), data_dir=data_dir)
+    card_l = PlanarLayer("Dolls card", place(opaque(dolls), cv, 30, 200), 6.6, gx=-0.008)
+    art = PlanarLayer("artichoke", place(matte("GT11", 240, data_dir=data_dir), cv, 60, 10), 13.8)
+    return _scene("artichoke_books", [books, card_l, art], K, rng, artichoke_books.__doc__, (10.0, 4.0), seed=8)
+
+
+@_register
+def flowers_fence(K: int = 5, data_dir=None) -> Scene:
+    """(held out) Red flowers and leaves (GT21) behind a fence, in front of a plain wall: thin bars in front of a
+    soft foreground."""
+    rng = np.random.default_rng(9)
+    cv = _canvas()
+    wall = PlanarLayer("wall", opaque(painted_wall(cv, (0.7, 0.66, 0.6), rng)), 1.0)
+    flowers = PlanarLayer("flowers", place(matte("GT21", 240, data_dir=data_dir, crop=(0.1, 1.0, 0.0, 0.9)), cv,
+                                           40, 60), 7.1)
+    fen = PlanarLayer("fence", fence(cv, spacing=34.0, thickness=3.0, angle=10.0, colour=(0.55, 0.5, 0.45),
+                                     rng=rng), 12.8)
+    return _scene("flowers_fence", [wall, flowers, fen], K, rng, flowers_fence.__doc__, (10.0, 4.0), seed=9)
+
+
+def build(name: str, *, K: int = 5, data_dir=None) -> Scene:
+    """The benchmark scene ``name`` (:data:`SCENES`) with ``K`` views (K = 2: a stereo rig, reference left)."""
+    try:
+        builder = SCENES[name]
+    except KeyError:
+        raise VfxStereoError(f"unknown scene {name!r}; choose one of: {', '.join(SCENES)}") from None
+    return builder(K=K, data_dir=data_dir)

@@ -1,0 +1,262 @@
+"""Soft edges from several views: alpha by triangulation against the backgrounds the views see (beyond the paper).
+
+Along a depth edge, a reference pixel x may hold a soft foreground (hair, fur, a motion-blurred or anti-aliased
+edge) with opacity alpha and premultiplied colour C = alpha F on the front plane f, over a background on plane
+b. View k sees x's foreground point at u_k and, through it, the background point y_k that the rig's parallax
+puts behind it (``Warper.transfer``): ``I_k(u_k) = C + (1 - alpha) B(y_k)``. With the background B known, each
+view adds three linear equations in (C, alpha): where the views see *different* backgrounds through the same
+foreground point, alpha is fixed by the data -- triangulation matting (Smith & Blinn, SIGGRAPH 1996) with the
+rig's parallax moving the background (docs/EQUATIONS.md, "What decides soft-edge quality"). Eliminating C::
+
+    1 - alpha = sum_k (I_k - mean I) . (B_k - mean B) / sum_k |B_k - mean B|^2
+
+and ``sum_k |B_k - mean B|^2`` says how well the views determine it. Where they do not (a flat background, or
+K = 2 with little parallax), a single-view estimate takes over: the foreground colour F sampled from the
+nearest solid foreground pixels and the known background B give ``alpha = (I - B) . (F - B) / |F - B|^2``
+(the colour-line model of sampling matting, e.g. Gastal & Oliveira 2010), trusted by ``|F - B|^2``. Both are
+blended with the depth map's own 0/1 label as a weak prior.
+
+The background: on each back plane b, a background image made from the views that see its points *clear of
+the foreground grown by* ``dilate`` px (so that hair strands the depth map missed do not leak into it):
+the z-buffer of the dilated depth map in each view decides (Section 5's visibility), and points no view sees
+clearly are filled from around (normalised convolution).
+
+The band: pixels within ``radius`` px of a depth jump of at least ``jump`` px per view step; a pixel on the
+far side of a jump gets the nearest surface around it as its front plane f and its own plane as b; a pixel on
+the near side keeps its plane as f and takes, as b, the nearest hidden plane behind it, or the farthest
+surface around.
+
+The result replaces the band's cells: the front cell gets (C, alpha) with ``C = I_ref - (1 - alpha) B_ref``
+(so the reference view is reproduced), the back cell the background colour, opaque, and cells between them
+are cleared.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+
+from vfxstereo.errors import VfxStereoError
+from vfxstereo.progress import Progress, report
+
+
+@dataclass(frozen=True)
+class SoftEdgeParams:
+    """Settings of :func:`soften_edges`."""
+
+    radius: int = 8
+    """Half-width of the band around depth jumps, px."""
+    jump: float = 1.0
+    """Smallest depth jump that makes a band, px per view step."""
+    dilate: int = 3
+    """The foreground is grown by this many px before the background is taken from the views."""
+    w_views: float = 1.0
+    """Weight of the multi-view estimate per unit of background variation (colour^2)."""
+    w_colour: float = 0.05
+    """Weight of the single-view colour estimate per unit of foreground/background separation (colour^2)."""
+    w_prior: float = 0.002
+    """Weight of the depth map's 0/1 label."""
+    search: int = 24
+    """Farthest a foreground colour sample is looked for, px."""
+
+
+def _sample(img: np.ndarray, X: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Bilinear samples of ``img`` (H, W, C) at float positions; and where they lie inside the frame."""
+    h, w = img.shape[:2]
+    inside = np.isfinite(X) & np.isfinite(Y) & (X >= 0) & (X <= w - 1) & (Y >= 0) & (Y <= h - 1)
+    Xc = np.where(inside, X, 0.0)
+    Yc = np.where(inside, Y, 0.0)
+    out = np.stack([ndimage.map_coordinates(img[..., c], [Yc, Xc], order=1, mode="nearest")
+                    for c in range(img.shape[2])], axis=-1)
+    return out.astype(np.float32), inside
+
+
+def fill_colour(rgb: np.ndarray, known: np.ndarray, *, sigmas=(2.0, 6.0, 18.0, 54.0)) -> np.ndarray:
+    """Unknown pixels of ``rgb`` filled by normalised convolution at growing scales (known pixels kept)."""
+    out = rgb.copy()
+    todo = ~known
+    w = known.astype(np.float32)
+    for s in sigmas:
+        if not todo.any():
+            break
+        den = ndimage.gaussian_filter(w, s)
+        num = np.stack([ndimage.gaussian_filter(rgb[..., c] * w, s) for c in range(3)], axis=-1)
+        got = todo & (den > 1e-3)
+        out[got] = num[got] / den[got, None]
+        todo &= ~got
+    if todo.any():
+        out[todo] = rgb[known].mean(axis=0) if known.any() else 0.0
+    return out
+
+
+def background_image(views: np.ndarray, warper, plane: int, disparity: np.ndarray, *, dilate: int,
+                     tolerance: float) -> tuple[np.ndarray, np.ndarray]:
+    """Colour of plane ``plane`` at every reference position, from the views that see it clear of the
+    foreground grown by ``dilate`` px; ``(rgb (H, W, 3), seen (H, W) bool)``, unseen points filled."""
+    from vfxstereo.depth import zbuffer
+
+    grown = ndimage.maximum_filter(disparity, size=2 * dilate + 1) if dilate > 0 else disparity
+    d_b = float(warper.disparities[plane])
+    h, w = warper.shape
+    total = np.zeros((h, w, 3), np.float32)
+    weight = np.zeros((h, w), np.float32)
+    for k in range(views.shape[0]):
+        zb = zbuffer(warper, grown, k)
+        clear = (zb <= d_b + tolerance).astype(np.float32)
+        wt = warper.to_plane(clear, k, plane)
+        total += warper.to_plane(views[k] * clear[..., None], k, plane)
+        weight += wt
+    seen = weight > 0.5
+    rgb = np.where(seen[..., None], total / np.maximum(weight, 1e-6)[..., None], 0.0).astype(np.float32)
+    return fill_colour(rgb, seen), seen
+
+
+@dataclass
+class SoftEdges:
+    """What :func:`soften_edges` decided, for diagnostics."""
+
+    band: np.ndarray  # (H, W) bool
+    alpha: np.ndarray  # (H, W) float32, NaN outside the band
+    front: np.ndarray  # (H, W) int32 front plane, -1 outside
+    back: np.ndarray  # (H, W) int32 back plane, -1 outside
+    confidence: np.ndarray  # (H, W) float32 background variation across the views
+
+
+def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, disparity: np.ndarray,
+                 index: np.ndarray, *, params: SoftEdgeParams | None = None, tolerance: float | None = None,
+                 progress: Progress | None = None) -> tuple[np.ndarray, SoftEdges]:
+    """Soft alpha along the depth edges of ``volume`` (see the module docstring).
+
+    Parameters
+    ----------
+    volume : ndarray of shape (D, H, W, 4)
+        Premultiplied 0/1 volume (front surface and hidden cells, :mod:`vfxstereo.layers`); not modified.
+    views : ndarray of shape (K, H, W, 3)
+    warper : vfxstereo.warp.Warper
+    reference : int
+    disparity, index : ndarray of shape (H, W)
+        The front surface (sub-pixel disparity and plane index).
+    tolerance : float, optional
+        Visibility tolerance in disparity units (default: two plane steps).
+
+    Returns
+    -------
+    (volume, SoftEdges)
+    """
+    from vfxstereo import _edge_kernels
+    from vfxstereo.depth import zbuffer
+
+    p = params or SoftEdgeParams()
+    D, h, w = volume.shape[:3]
+    d = warper.disparities
+    step = float(np.median(np.diff(d))) if D > 1 else 1.0
+    tol = 2.0 * step if tolerance is None else float(tolerance)
+    jump = max(1, int(np.ceil(p.jump / step - 1e-9)))
+    size = 2 * p.radius + 1
+    fmax = ndimage.maximum_filter(index, size=size)
+    fmin = ndimage.minimum_filter(index, size=size)
+    far_side = fmax - index >= jump
+    near_side = ~far_side & (index - fmin >= jump)
+    band = far_side | near_side
+    out = volume.copy()
+    info = SoftEdges(band=band, alpha=np.full((h, w), np.nan, np.float32), front=np.full((h, w), -1, np.int32),
+                     back=np.full((h, w), -1, np.int32), confidence=np.zeros((h, w), np.float32))
+    if not band.any():
+        return out, info
+    f_plane = np.where(far_side, fmax, index).astype(np.int32)
+    # back plane of a near-side pixel: its nearest hidden cell behind it, else the farthest surface around
+    hidden = volume[..., 3] > 0.5
+    hidden &= np.arange(D)[:, None, None] < index[None]
+    nearest_hidden = np.where(hidden.any(axis=0), D - 1 - np.argmax(hidden[::-1], axis=0), -1)
+    b_plane = np.where(far_side, index, np.where(nearest_hidden >= 0, nearest_hidden, fmin)).astype(np.int32)
+    ys, xs = np.nonzero(band)
+    f, b = f_plane[ys, xs], b_plane[ys, xs]
+    # the backgrounds, one image per back plane in use
+    backgrounds = {}
+    for n, bp in enumerate(np.unique(b)):
+        backgrounds[int(bp)] = background_image(views, warper, int(bp), disparity, dilate=p.dilate,
+                                                tolerance=tol)[0]
+        report(progress, "soft edges", n + 1, len(np.unique(b)) + 1)
+    K = views.shape[0]
+    N = len(ys)
+    I = np.zeros((K, N, 3), np.float32)
+    B = np.zeros((K, N, 3), np.float32)
+    ok = np.zeros((K, N), bool)
+    xf, yf = xs.astype(np.float64), ys.astype(np.float64)
+    d_f = d[f].astype(np.float32)
+    for k in range(K):
+        u, v = warper.points_to_view(k, xf, yf, f)
+        I[k], inside = _sample(views[k], u, v)
+        zb = zbuffer(warper, disparity, k)
+        zk = ndimage.map_coordinates(zb, [np.nan_to_num(v), np.nan_to_num(u)], order=0, mode="nearest")
+        ok[k] = inside & (zk <= d_f + tol)  # nothing nearer than the front plane hides the point in view k
+        X, Y = warper.transfer(k, xf, yf, f, b)
+        for bp in np.unique(b):
+            sel = b == bp
+            B[k, sel], ins = _sample(backgrounds[int(bp)], X[sel], Y[sel])
+            ok[k, sel] &= ins
+    ok[reference] = True
+    # multi-view (triangulation) estimate
+    wv = ok.astype(np.float32)[..., None]
+    nv = np.maximum(wv.sum(axis=0), 1.0)
+    Im = (I * wv).sum(axis=0) / nv
+    Bm = (B * wv).sum(axis=0) / nv
+    dI, dB = (I - Im) * wv, (B - Bm) * wv
+    var_b = (dB * dB).sum(axis=(0, 2))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        a_views = np.clip(1.0 - (dI * dB).sum(axis=(0, 2)) / var_b, 0.0, 1.0)
+    a_views = np.where(var_b > 1e-8, a_views, 0.0)
+    # single-view (colour) estimate with foreground samples from the solid pixels around
+    core = ndimage.binary_dilation(_edges(index, jump), iterations=2)
+    solid = ~core
+    plate = np.ascontiguousarray(views[reference], np.float32)
+    a_colour = np.empty(N, np.float32)
+    sep = np.empty(N, np.float32)
+    resid = np.empty(N, np.float32)
+    _edge_kernels.colour_alpha(ys.astype(np.int64), xs.astype(np.int64), f, index, solid, plate,
+                               np.ascontiguousarray(B[reference]), int(p.search), a_colour, sep, resid)
+    have_c = a_colour >= 0
+    prior = (index[ys, xs] >= f).astype(np.float32)
+    wv_ = p.w_views * var_b
+    wc_ = np.where(have_c, p.w_colour * sep, 0.0)
+    alpha = (wv_ * a_views + wc_ * np.where(have_c, a_colour, 0.0) + p.w_prior * prior) / (wv_ + wc_ + p.w_prior)
+    alpha = alpha.astype(np.float32)
+    # write the band's cells
+    B0 = B[reference]
+    C = np.clip(plate[ys, xs] - (1.0 - alpha)[:, None] * B0, 0.0, None)
+    white = max(1.0, float(plate.max()))
+    C = np.minimum(C, white * alpha[:, None])
+    planes = np.arange(D)[:, None]
+    between = (planes > b[None]) & (planes < f[None])  # (D, N) cleared
+    cols = out[:, ys, xs]  # (D, N, 4)
+    cols[between] = 0.0
+    cols[f, np.arange(N), :3] = C
+    cols[f, np.arange(N), 3] = alpha
+    cols[b, np.arange(N), :3] = B0
+    cols[b, np.arange(N), 3] = 1.0
+    out[:, ys, xs] = cols
+    info.alpha[ys, xs] = alpha
+    info.front[ys, xs] = f
+    info.back[ys, xs] = b
+    info.confidence[ys, xs] = var_b
+    report(progress, "soft edges", 1, 1)
+    return out, info
+
+
+def _edges(index: np.ndarray, jump: int) -> np.ndarray:
+    """Pixels next to a neighbour whose plane differs by at least ``jump``."""
+    e = np.zeros(index.shape, bool)
+    dx = np.abs(np.diff(index, axis=1)) >= jump
+    dy = np.abs(np.diff(index, axis=0)) >= jump
+    e[:, 1:] |= dx
+    e[:, :-1] |= dx
+    e[1:] |= dy
+    e[:-1] |= dy
+    return e
+
+
+def check_params(params: SoftEdgeParams) -> None:
+    if params.radius < 1 or params.dilate < 0 or params.search < 1:
+        raise VfxStereoError("soft edges: radius >= 1, dilate >= 0, search >= 1")
