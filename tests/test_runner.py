@@ -89,12 +89,15 @@ def _bundled():
     return SolverCommand.bundled(sys.executable, str(REPO), version="test")
 
 
-@pytest.fixture(scope="module")
-def small_views(tmp_path_factory):
-    """Five 48x40 views of a random-dot stereogram, as EXR files (a solve of a few seconds)."""
-    folder = tmp_path_factory.mktemp("views")
+def write_small_views(folder):
+    """Five 48x40 views of a random-dot stereogram as EXR files (a solve of a second or two); their paths."""
     sample = samples.random_dot_stereogram(shape=(40, 48), num_planes=4, squares=[(2, 8, 10, 20, 24)])
     return [str(exr.write_image(folder / f"v{k}.exr", v)) for k, v in enumerate(sample.views)]
+
+
+@pytest.fixture(scope="module")
+def small_views(tmp_path_factory):
+    return write_small_views(tmp_path_factory.mktemp("views"))
 
 
 def test_a_run_moves_its_stack_into_place_only_at_the_end(tmp_path, small_views):
