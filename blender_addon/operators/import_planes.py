@@ -7,6 +7,7 @@ placed among them) with the over operator, in Cycles and EEVEE alike. The planes
 only: they light, shadow and reflect nothing.
 """
 
+import math
 import os
 
 import bpy
@@ -94,12 +95,13 @@ class VFXSTEREO_OT_import_stack_planes(bpy.types.Operator):
 
 
 def scene_camera(scene):
-    """The scene camera, or a new one at the origin looking down -Z; and whether it was made."""
+    """The scene camera, or a new level one at the origin looking along +Y; and whether it was made."""
     if scene.camera is not None:
         if scene.camera.type != "CAMERA":
             raise VfxStereoError(f"the scene camera {scene.camera.name} is not a camera object")
         return scene.camera, False
     camera = bpy.data.objects.new("vfxstereo camera", bpy.data.cameras.new("vfxstereo camera"))
+    camera.rotation_euler = (math.pi / 2, 0.0, 0.0)  # level, Z up: the planes stand upright along +Y
     scene.collection.objects.link(camera)
     scene.camera = camera
     return camera, True
