@@ -114,6 +114,22 @@ def test_a_run_moves_its_stack_into_place_only_at_the_end(tmp_path, small_views)
     assert "refine" in {s for s, _ in seen} and seen[-1][1] == pytest.approx(1.0)
 
 
+def test_a_frame_sequence_run_moves_every_frame_and_counts_frames(tmp_path, small_views):
+    for frame in (1001, 1002):  # two frames of the same five views, as frame patterns v<k>.####.exr
+        for k, view in enumerate(small_views):
+            os.link(view, tmp_path / f"v{k}.{frame}.exr")
+    out = tmp_path / "out"
+    out.mkdir()
+    patterns = tuple(str(tmp_path / f"v{k}.####.exr") for k in range(len(small_views)))
+    run = SolveRun(_bundled(), SolveRequest(str(out / "stack.####.exr"), views=patterns, disparities="0:3"))
+    run.start()
+    counts = set()
+    assert run.wait(lambda p: counts.add((p.frame_index, p.frame_count))) == 0
+    assert run.finish() == [out / "stack.1001.exr", out / "stack.1002.exr"]
+    assert sorted(os.listdir(out)) == ["stack.1001.exr", "stack.1002.exr"]
+    assert (2, 2) in counts and run.progress.fraction == pytest.approx(1.0)
+
+
 def test_a_failing_run_reports_the_commands_one_line_error_and_leaves_nothing(tmp_path):
     run = SolveRun(_bundled(), SolveRequest(str(tmp_path / "s.exr"), views=("nope0.png", "nope1.png")))
     run.start()
