@@ -2,6 +2,31 @@
 
 import bpy
 
+from vfxstereo.errors import VfxStereoError
+
+ELEMENT_ITEMS = [("RENDER", "Render", "The scene's own render (film made transparent)"),
+                 ("IMAGE", "Image", "An image file (premultiplied RGBA)")]
+"""What goes between the layers in the z-key compositor."""
+
+INTO_ITEMS = [("PLATE", "Plate", "Compose into the plate stored in the stack: the comp equals the plate "
+                                 "wherever the element adds nothing"),
+              ("STACK", "Stack", "Compose into the stack's own layers: front over element over back")]
+"""What the z-key compositor composes into."""
+
+
+def stack_file(given: str, scene) -> str:
+    """The stack EXR an operator works on: its own ``filepath`` if given, else the scene's, made absolute.
+
+    Raises
+    ------
+    VfxStereoError
+        When neither is set.
+    """
+    path = bpy.path.abspath(given or scene.vfxstereo.stack_path)
+    if not path:
+        raise VfxStereoError("choose a stack EXR (Solve Plates sets the scene's)")
+    return path
+
 
 class VFXSTEREO_PG_settings(bpy.types.PropertyGroup):
     """Per-scene settings: the current stack and how to z-key into it."""
@@ -27,8 +52,7 @@ class VFXSTEREO_PG_settings(bpy.types.PropertyGroup):
     element: bpy.props.EnumProperty(
         name="Element",
         description="What goes between the layers",
-        items=[("RENDER", "Render", "The scene's own render (film made transparent)"),
-               ("IMAGE", "Image", "An image file (premultiplied RGBA)")],
+        items=ELEMENT_ITEMS,
         default="RENDER",
     )
     element_path: bpy.props.StringProperty(
@@ -40,7 +64,6 @@ class VFXSTEREO_PG_settings(bpy.types.PropertyGroup):
     into: bpy.props.EnumProperty(
         name="Into",
         description="Compose into the plate the stack was solved from, or into the stack's own layers",
-        items=[("PLATE", "Plate", "The comp equals the plate wherever the element adds nothing"),
-               ("STACK", "Stack", "Front over element over back, the stack's re-synthesis")],
+        items=INTO_ITEMS,
         default="PLATE",
     )

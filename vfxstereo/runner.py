@@ -222,7 +222,6 @@ class ProgressParser:
         self.error: str | None = None
         self.last_line = ""
         self._pending = ""
-        self._frame_base = 0.0
 
     def feed(self, text: str) -> bool:
         """Take more output; True when the progress changed."""
@@ -286,7 +285,8 @@ class SolveRun:
 
     Examples
     --------
-    >>> run = SolveRun(SolverCommand.external("vfxstereo"), SolveRequest("out/stack.exr", dataset="demo"))
+    >>> command = SolverCommand.external("vfxstereo")  # doctest: +SKIP
+    >>> run = SolveRun(command, SolveRequest("out/stack.exr", dataset="demo"))  # doctest: +SKIP
     >>> run.start()                          # doctest: +SKIP
     >>> while run.poll() is None: ...        # doctest: +SKIP  (a UI timer; run.progress.text())
     >>> outputs = run.finish()               # doctest: +SKIP  (or run.cancel() on Esc)

@@ -11,6 +11,7 @@ import bpy
 from vfxstereo.errors import VfxStereoError
 from vfxstereo.io.stackinfo import read_stack_info
 
+from .. import properties
 from ..nodes import build_zkey_tree
 
 
@@ -26,16 +27,10 @@ class VFXSTEREO_OT_build_zkey_compositor(bpy.types.Operator):
     disparity: bpy.props.FloatProperty(
         name="Disparity", default=0.0,
         description="Where the element goes: in front of the layers with d <= this, behind the others")
-    element: bpy.props.EnumProperty(
-        name="Element", default="RENDER",
-        items=[("RENDER", "Render", "The scene's own render (film made transparent)"),
-               ("IMAGE", "Image", "An image file (premultiplied RGBA)")])
+    element: bpy.props.EnumProperty(name="Element", default="RENDER", items=properties.ELEMENT_ITEMS)
     element_path: bpy.props.StringProperty(name="Element Image", subtype="FILE_PATH",
                                            description="The element image, for Element = Image")
-    into: bpy.props.EnumProperty(
-        name="Into", default="PLATE",
-        items=[("PLATE", "Plate", "Compose into the plate stored in the stack"),
-               ("STACK", "Stack", "Compose into the stack's own layers (front over element over back)")])
+    into: bpy.props.EnumProperty(name="Into", default="PLATE", items=properties.INTO_ITEMS)
     configure_scene: bpy.props.BoolProperty(
         name="Configure Scene", default=True,
         description="Set the render size to the stack's, and a transparent film when the element is the render")
@@ -52,10 +47,8 @@ class VFXSTEREO_OT_build_zkey_compositor(bpy.types.Operator):
     def execute(self, context):
         """Build the tree and make it the scene's compositor."""
         scene = context.scene
-        path = bpy.path.abspath(self.filepath or scene.vfxstereo.stack_path)
         try:
-            if not path:
-                raise VfxStereoError("choose a stack EXR to z-key into")
+            path = properties.stack_file(self.filepath, scene)
             info = read_stack_info(path)
             element = None
             if self.element == "IMAGE":

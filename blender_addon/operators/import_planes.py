@@ -17,7 +17,7 @@ from vfxstereo.errors import VfxStereoError
 from vfxstereo.io.stackinfo import read_stack_info, read_stack_layer
 from vfxstereo.scene import CameraFrustum, DepthMapping, clip_range, depth_mapping, layout_planes
 
-from .. import preferences
+from .. import preferences, properties
 
 EXTRA_TRANSPARENT_BOUNCES = 8
 """Transparent bounces Cycles gets beyond one per layer, for CG objects among the planes."""
@@ -56,10 +56,8 @@ class VFXSTEREO_OT_import_stack_planes(bpy.types.Operator):
     def execute(self, context):
         """Make the planes."""
         scene = context.scene
-        path = bpy.path.abspath(self.filepath or scene.vfxstereo.stack_path)
         try:
-            if not path:
-                raise VfxStereoError("choose a stack EXR to import")
+            path = properties.stack_file(self.filepath, scene)
             info = read_stack_info(path)
             mapping = self.mapping(context, info.camera)
             camera, made_camera = scene_camera(scene)

@@ -132,31 +132,30 @@ def _disparity_cases(rng):
             ("per pixel", per_pixel)]
 
 
-@pytest.mark.parametrize("case", range(5))
-def test_layer_holdout_matches_composite_holdout(comp_scene, tmp_path, rng, case):
-    tree = comp_scene.compositing_node_group
-    node = group_node(tree, nodes.build_layer_holdout(len(DISPARITIES)))
+def _stack_group(tree, group, rng, case):
+    """A group node fed a random 4-layer stack and one of the disparity cases; the stack and the case."""
+    node = group_node(tree, group)
     stack = _stack_inputs(tree, node, rng)
     label, D = _disparity_cases(rng)[case]
     if np.ndim(D):
         tree.links.new(grey_node(tree, "D", D), node.inputs["Disparity"])
     else:
         node.inputs["Disparity"].default_value = D
+    return node, stack, label, D
+
+
+@pytest.mark.parametrize("case", range(5))
+def test_layer_holdout_matches_composite_holdout(comp_scene, tmp_path, rng, case):
+    tree = comp_scene.compositing_node_group
+    node, stack, label, D = _stack_group(tree, nodes.build_layer_holdout(len(DISPARITIES)), rng, case)
     got = render_output(comp_scene, tmp_path, node.outputs["Matte"])
-    expected = composite.holdout(stack, D)
-    assert np.abs(got[..., 0] - expected).max() < TOL, label
+    assert np.abs(got[..., 0] - composite.holdout(stack, D)).max() < TOL, label
 
 
 @pytest.mark.parametrize("case", range(5))
 def test_stack_split_matches_composite_split(comp_scene, tmp_path, rng, case):
     tree = comp_scene.compositing_node_group
-    node = group_node(tree, nodes.build_stack_split(len(DISPARITIES)))
-    stack = _stack_inputs(tree, node, rng)
-    label, D = _disparity_cases(rng)[case]
-    if np.ndim(D):
-        tree.links.new(grey_node(tree, "D", D), node.inputs["Disparity"])
-    else:
-        node.inputs["Disparity"].default_value = D
+    node, stack, label, D = _stack_group(tree, nodes.build_stack_split(len(DISPARITIES)), rng, case)
     front, back = composite.split(stack, D)
     assert np.abs(render_output(comp_scene, tmp_path, node.outputs["Front"]) - front).max() < TOL, label
     assert np.abs(render_output(comp_scene, tmp_path, node.outputs["Back"]) - back).max() < TOL, label
