@@ -175,6 +175,40 @@ def test_the_bundled_wheels_alone_are_enough_to_solve(installed, tmp_path):
     assert exr.read_stack(out).depth == 4
 
 
+_ONLY_BPY_AND_NUMPY = """
+import os, sys
+sys.path.insert(0, os.environ["ONLY"])
+import bpy
+bpy.ops.wm.read_factory_settings(use_empty=True)
+bpy.ops.extensions.package_install_files(filepath=os.environ["ZIP"], repo="user_default", enable_on_install=True)
+import vfxstereo, OpenImageIO
+where = os.path.join(os.environ["BLENDER_USER_RESOURCES"], "extensions")
+assert vfxstereo.__file__.startswith(where) and OpenImageIO.__file__.startswith(where), vfxstereo.__file__
+assert bpy.ops.vfxstereo.import_stack_planes(filepath=os.environ["STACK"]) == {"FINISHED"}
+assert bpy.ops.vfxstereo.build_zkey_compositor(filepath=os.environ["STACK"], disparity=3) == {"FINISHED"}
+print("planes", sum("vfxstereo_layer" in o for o in bpy.context.scene.objects))
+"""
+
+
+def test_the_add_on_runs_on_its_bundled_wheels_alone(extension_zip, solved, tmp_path):
+    """A Blender that has nothing but bpy and numpy: install the zip, import planes, build the z-key tree."""
+    import numpy
+
+    only = tmp_path / "only"
+    only.mkdir()
+    site = Path(numpy.__file__).parents[1]
+    for name in ("bpy", "numpy", "numpy.libs"):
+        if (site / name).exists():
+            (only / name).symlink_to(site / name)
+    env = {"PATH": os.environ.get("PATH", ""), "ONLY": str(only), "ZIP": str(extension_zip),
+           "STACK": str(solved["stack"]), "BLENDER_USER_RESOURCES": str(tmp_path / "user"),
+           "XDG_CACHE_HOME": str(tmp_path / "cache")}
+    done = subprocess.run([sys.executable, "-S", "-E", "-c", _ONLY_BPY_AND_NUMPY], capture_output=True,
+                          text=True, env=env, cwd=tmp_path)
+    assert done.returncode == 0, (done.stdout + done.stderr)[-3000:]
+    assert "planes 5" in done.stdout
+
+
 # --------------------------------------------------------------------------------------------------------
 # Solve Plates
 
