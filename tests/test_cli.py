@@ -1,5 +1,6 @@
 """The command line on real files: outputs, bad input (one line, exit 2, nothing written), frame sequences."""
 
+import json
 import os
 import signal
 import subprocess
@@ -63,7 +64,8 @@ def test_solve_writes_stack_disparity_and_deep(tmp_path, views, scene):
     assert stack.depth == 8 and stack.shape[1:] == SHAPE
     np.testing.assert_array_equal(stack.disparities, np.arange(8.0))
     d, names, _ = exr.read_image(out / "d.exr")
-    assert d.shape == SHAPE + (1,)
+    assert d.shape == SHAPE + (2,) and names == exr.DISPARITY_CHANNELS
+    np.testing.assert_array_equal(d[..., 0], d[..., 1])
     gt = scene.gt_disparity()
     assert np.mean(np.abs(d[..., 0] - gt) < 0.5) > 0.8  # wta on the stereogram gets most pixels right
     assert exr.read_deep(out / "deep.exr") is not None
@@ -117,10 +119,100 @@ def test_png_outputs_are_display_encoded(tmp_path, stack_file, scene):
 
 
 # ---------------------------------------------------------------------------------------------------------
+# Multi-view EXR plates: one file per frame holds the views
+
+
+VIEW_NAMES = ["c0", "c1", "c2", "c3", "c4"]
+
+
+def assert_same_solve(a: Path, b: Path):
+    sa, sb = exr.read_stack(a), exr.read_stack(b)
+    np.testing.assert_array_equal(sa.rgba, sb.rgba)
+    np.testing.assert_array_equal(sa.plate, sb.plate)
+    assert sa.disparities.tolist() == sb.disparities.tolist()
+    assert sa.camera == sb.camera
+
+
+@pytest.mark.parametrize("layout", ["single", "multipart"])
+def test_solve_a_multi_view_sequence_equals_the_solve_from_separate_files(tmp_path, views, scene, layout,
+                                                                          multiview_exr):
+    """plate.####.exr with five views inside, frames 1-2: the same stacks as from five files per frame."""
+    from fractions import Fraction
+
+    import OpenEXR
+
+    tc = OpenEXR.TimeCode()
+    tc.hours, tc.frame = 1, 2
+    for f in (1, 2):
+        frame_views = {n: v * (0.9 + 0.05 * f) for n, v in zip(VIEW_NAMES, scene.views, strict=True)}
+        multiview_exr(tmp_path / f"plate.{f:04d}.exr", frame_views, layout,
+                      header={"framesPerSecond": Fraction(25, 1), "timeCode": tc})
+        for k, v in enumerate(frame_views.values()):
+            exr.write_image(tmp_path / f"cam{k}.{f:04d}.exr", v)
+    common = ["--disparities", "0:7", "--preset", "wta", "-q"]
+    status, _, err = run_cli("solve", tmp_path / "plate.####.exr", "-o", tmp_path / "mv.####.exr",
+                             "--deep-out", tmp_path / "mvdeep.####.exr", *common)
+    assert status == 0, err
+    status, _, err = run_cli("solve", *[tmp_path / f"cam{k}.####.exr" for k in range(5)], "-o",
+                             tmp_path / "sep.####.exr", *common)
+    assert status == 0, err
+    for f in (1, 2):
+        assert_same_solve(tmp_path / f"mv.{f:04d}.exr", tmp_path / f"sep.{f:04d}.exr")
+    stack = exr.read_stack(tmp_path / "mv.0002.exr")
+    assert stack.metadata["source_views"] == VIEW_NAMES
+    assert stack.metadata["source_files"] == [str(tmp_path / "plate.0002.exr")] * 5
+    status, out, err = run_cli("info", tmp_path / "mvdeep.0002.exr", "--json")
+    assert status == 0, err
+    info = json.loads(out)
+    assert info["kind"] == "deep" and info["samples"] == "tidy"
+    assert info["exr"]["framesPerSecond"] == [25, 1] and info["exr"]["timeCode"] == "01:00:00:02"
+    assert info["exr"]["views"] == VIEW_NAMES and info["exr"]["sources"] == stack.metadata["source_files"]
+
+
+def test_solve_picks_views_by_name_with_positions(tmp_path, views, scene, multiview_exr):
+    """--views c3,c1 with --positions 3,1 is the solve of those two files at those positions."""
+    multiview_exr(tmp_path / "plate.exr", dict(zip(VIEW_NAMES, scene.views, strict=True)), "multipart")
+    common = ["--disparities", "0:7", "--preset", "wta", "--positions", "3,1", "--reference", "1", "-q"]
+    status, _, err = run_cli("solve", tmp_path / "plate.exr", "--views", "c3,c1", "-o", tmp_path / "mv.exr",
+                             *common)
+    assert status == 0, err
+    status, _, err = run_cli("solve", views[3], views[1], "-o", tmp_path / "sep.exr", *common)
+    assert status == 0, err
+    assert_same_solve(tmp_path / "mv.exr", tmp_path / "sep.exr")
+    status, out, _ = run_cli("info", tmp_path / "mv.exr", "--json")
+    assert status == 0 and json.loads(out)["exr"]["views"] == ["c3", "c1"]
+
+
+def test_info_describes_a_multi_view_plate(tmp_path, scene, multiview_exr):
+    path = multiview_exr(tmp_path / "plate.exr", dict(zip(VIEW_NAMES[:2], scene.views[:2], strict=True)),
+                         "single")
+    status, out, err = run_cli("info", path)
+    assert status == 0, err
+    assert "multi-view EXR, 1 part, 2 views: c0 (default), c1" in out
+    assert "view c1: 48x48, colour from c1.R, c1.G, c1.B" in out
+    status, out, _ = run_cli("info", path, "--json")
+    info = json.loads(out)
+    assert info["kind"] == "plate" and [v["name"] for v in info["views"]] == ["c0", "c1"]
+    assert info["parts"][0]["channels"] == ["R", "G", "B", "Z", "c1.R", "c1.G", "c1.B", "c1.Z", "tmp.Z"]
+    path = multiview_exr(tmp_path / "mp.exr", dict(zip(VIEW_NAMES[:2], scene.views[:2], strict=True)),
+                         "multipart")
+    status, out, _ = run_cli("info", path)
+    assert "2 parts, 2 views" in out and "part 1 'rgba.c1': 48x48, view c1, channels R, G, B, A" in out
+
+
+def test_info_of_a_deep_file_says_how_its_samples_are(tmp_path, stack_file):
+    exr.write_deep(tmp_path / "deep.exr", exr.read_stack(stack_file))
+    status, out, err = run_cli("info", tmp_path / "deep.exr")
+    assert status == 0, err
+    assert "deep scanline EXR, 48x48, 8 layers" in out
+    assert cli.DEEP_STATE_NOTE in out
+
+
+# ---------------------------------------------------------------------------------------------------------
 # Bad input: one clear line on stderr, exit status 2, no output created or clobbered
 
 
-def _bad_cases(tmp: Path, views: list[Path], stack_file: Path):
+def _bad_cases(tmp: Path, views: list[Path], stack_file: Path, write_multiview_exr):
     """(name, argv, expected words in the message); every case writes to tmp/'out.exr'."""
     out = tmp / "out.exr"
     small = tmp / "small.exr"
@@ -141,6 +233,10 @@ def _bad_cases(tmp: Path, views: list[Path], stack_file: Path):
     a_file = tmp / "not_a_folder"
     a_file.write_text("x")
     v = [str(p) for p in views]
+    plain_views = {"left": np.zeros(SHAPE + (3,), np.float32), "right": np.ones(SHAPE + (3,), np.float32)}
+    stereo = write_multiview_exr(tmp / "stereo.exr", plain_views, "multipart")
+    odd = write_multiview_exr(tmp / "odd.exr", {**plain_views, "right": np.ones((40, 48, 3), np.float32)},
+                              "multipart")
     return [
         ("missing view", ["solve", v[0], str(tmp / "nope.exr"), *v[2:], "-o", out], ["not found", "nope.exr"]),
         ("different sizes", ["solve", *v[:2], str(small), "-o", out], ["size"]),
@@ -157,17 +253,28 @@ def _bad_cases(tmp: Path, views: list[Path], stack_file: Path):
         ("unwritable folder", ["solve", *v, "-o", str(a_file / "out.exr")], ["folder"]),
         ("pattern without files", ["solve", str(tmp / "cam0.####.exr"), str(tmp / "cam1.####.exr"),
                                    "-o", str(tmp / "s.####.exr")], ["no files", "cam0.####.exr"]),
+        ("unknown view", ["solve", str(stereo), "--views", "left,centre", "-o", out],
+         ["no view 'centre'", "left, right"]),
+        ("views of different sizes", ["solve", str(odd), "-o", out], ["48x40", "48x48", "left, right"]),
+        ("one view of a plate", ["solve", str(stereo), "--views", "right", "-o", out], ["at least 2", "left, right"]),
+        ("views with several files", ["solve", *v[:2], "--views", "left,right", "-o", out], ["one multi-view"]),
+        ("views of a plain file", ["solve", v[0], "--views", "left,right", "-o", out],
+         ["not a multi-view", "none"]),
+        ("positions for the views", ["solve", str(stereo), "--positions", "0,1,2", "-o", out],
+         ["2 views need 2 positions"]),
     ]
 
 
 CASE_NAMES = ["missing view", "different sizes", "one view", "truncated view", "nan in plate", "inf in plate",
               "not a stack", "truncated stack", "min >= max", "too many planes", "element size",
-              "unwritable folder", "pattern without files"]
+              "unwritable folder", "pattern without files", "unknown view", "views of different sizes",
+              "one view of a plate", "views with several files", "views of a plain file",
+              "positions for the views"]
 
 
 @pytest.mark.parametrize("case", CASE_NAMES)
-def test_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path, views, stack_file, case):
-    cases = {name: (argv, words) for name, argv, words in _bad_cases(tmp_path, views, stack_file)}
+def test_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path, views, stack_file, case, multiview_exr):
+    cases = {name: (argv, words) for name, argv, words in _bad_cases(tmp_path, views, stack_file, multiview_exr)}
     argv, words = cases[case]
     before = files_in(tmp_path)
     status, out, err = run_cli(*argv)

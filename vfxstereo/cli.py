@@ -291,7 +291,8 @@ def _solve_frame(args, job: Job, progress) -> None:
     from vfxstereo.io import exr, plates, preview
 
     config = SolveConfig.preset(args.preset)
-    views = plates.read_views(job.inputs["views"], colorspace=args.input_colorspace)
+    view_set = plates.read_view_set(job.inputs["views"], views=args._view_names, colorspace=args.input_colorspace)
+    views = view_set.pixels
     k, h, w = views.shape[:3]
     positions = args._positions if args._positions is not None else list(range(k))
     if len(positions) != k:
@@ -301,13 +302,12 @@ def _solve_frame(args, job: Job, progress) -> None:
     result = solver.solve(views, positions=positions, reference=args._reference, disparities=disparities,
                           config=config, progress=progress, camera=camera, return_details=True)
     stack = result.stack
-    stack.metadata.update({"source_files": [str(p) for p in job.inputs["views"]],
-                           "colorspace_in": args.input_colorspace or "default",
-                           "frame": job.frame})
+    stack.metadata.update(view_set.metadata(reference=stack.camera.reference_index))
+    stack.metadata.update({"colorspace_in": args.input_colorspace or "default", "frame": job.frame})
     exr.write_stack(job.outputs["stack"], stack)
     if job.outputs.get("disparity"):
-        exr.write_image(job.outputs["disparity"], result.disparity[..., None], channels=("Z",),
-                        metadata={"vfxstereo/what": "sub-pixel disparity of the reference camera"})
+        exr.write_disparity(job.outputs["disparity"], result.disparity,
+                            metadata={"vfxstereo/what": "sub-pixel disparity of the reference camera"})
     if job.outputs.get("deep"):
         exr.write_deep(job.outputs["deep"], stack)
     if args.previews:
@@ -324,6 +324,7 @@ def cmd_solve(args) -> int:
     from vfxstereo.io import plates
 
     views = list(args.views)
+    args._view_names = _parse_view_names(args.view_names)
     args._positions = parse_float_list(args.positions, "--positions") if args.positions else None
     args._reference = args.reference
     args._disparities = parse_disparities(args.disparities) if args.disparities else None
@@ -339,30 +340,54 @@ def cmd_solve(args) -> int:
             args._reference = int(ds.reference)
     if args.cameras:
         args._camera = _load_cameras(args.cameras)
-    if len(views) < 2 and not any("#" in v or "%" in v or "@" in v for v in views):
-        raise VfxStereoError(f"solve needs at least two views, got {len(views)}")
-    if args._camera is not None and args._camera.K != len(views):
-        raise VfxStereoError(f"--cameras describes {args._camera.K} cameras for {len(views)} views")
+    if not views:
+        raise VfxStereoError("solve needs at least two views (files), or one multi-view EXR")
+    if args._view_names is not None and len(views) != 1:
+        raise VfxStereoError(f"--views picks views inside one multi-view EXR (or one frame pattern of them), "
+                             f"but {len(views)} inputs were given")
     if args.previews:
         Path(args.previews).mkdir(parents=True, exist_ok=True)
         check_output(str(Path(args.previews) / "x.png"))
     _ = Camera  # camera model import kept local to the command
     jobs = plan_jobs(args, {"views": views},
                      {"stack": args.output, "disparity": args.disparity_out, "deep": args.deep_out})
-    _check_solve_memory(jobs, args)
+    _check_solve_inputs(jobs, args)
     return run_jobs(args, jobs, functools.partial(_solve_frame, args))
 
 
-def _check_solve_memory(jobs: list[Job], args) -> None:
+def _parse_view_names(text: str | None) -> list[str] | None:
+    """``--views left,right`` to names (None when not given)."""
+    if text is None:
+        return None
+    names = [v.strip() for v in text.split(",")]
+    if not all(names):
+        raise VfxStereoError(f"--views must be comma-separated view names, got {text!r}")
+    return names
+
+
+def _check_solve_inputs(jobs: list[Job], args) -> None:
+    """Before any work: the first frame's views, from their headers, against positions, cameras, memory."""
     if not jobs:
         return
     from vfxstereo import solver
     from vfxstereo.io import plates
 
     first = jobs[0].inputs["views"]
-    h, w = plates.image_size(first[0])
+    if len(first) == 1:  # one multi-view EXR per frame
+        layout = plates.describe_plate(first[0])
+        if not layout.views and args._view_names is None:
+            raise VfxStereoError(f"solve needs at least two views: {first[0]} is one image, not a multi-view "
+                                 "EXR (no multiView header and no part with a view attribute)")
+        names = layout.select(args._view_names)
+        k, (h, w) = len(names), layout.view_size(names[0])
+    else:
+        k, (h, w) = len(first), plates.image_size(first[0])
+    if args._positions is not None and len(args._positions) != k:
+        raise VfxStereoError(f"{k} views need {k} positions, --positions gave {len(args._positions)}")
+    if args._camera is not None and args._camera.K != k:
+        raise VfxStereoError(f"--cameras describes {args._camera.K} cameras for {k} views")
     d = len(args._disparities) if args._disparities is not None else len(default_disparities(w))
-    solver.check_memory((h, w), d, len(first))
+    solver.check_memory((h, w), d, k)
 
 
 def _load_cameras(path: str):
@@ -483,11 +508,14 @@ def cmd_split(args) -> int:
     return run_jobs(args, jobs, functools.partial(_split_frame, args))
 
 
-def stack_info(stack, path: str | None = None) -> dict:
-    """What ``vfxstereo info`` prints, as a plain dict."""
+def stack_info(stack, path: str | None = None, attributes: dict | None = None) -> dict:
+    """What ``vfxstereo info`` prints for a stack file, as a plain dict (``attributes``: its header's)."""
+    from vfxstereo.io import exr
+
     cov = stack.alpha_coverage()
     d, h, w = stack.shape
     return {
+        "kind": "layerstack",
         "file": path,
         "width": w,
         "height": h,
@@ -497,33 +525,125 @@ def stack_info(stack, path: str | None = None) -> dict:
         "white": stack.white,
         "plate": stack.plate is not None,
         "metadata": stack.metadata,
+        "exr": exr.pipeline_attributes(attributes or {}),
     }
 
 
+DEEP_STATE_NOTE = ("samples tidy (sorted nearest first, non-overlapping), stated in vfxstereo/deepImageState; "
+                   "OpenEXR's typed deepImageState is left out because OpenEXR's Python module refuses files "
+                   "that carry it")
+"""How ``vfxstereo info`` states the deep files' guarantee."""
+
+
 def cmd_info(args) -> int:
-    """``vfxstereo info``: what a stack file holds, as text or JSON."""
-    stack = _read_stack(args.stack)
-    info = stack_info(stack, args.stack)
+    """``vfxstereo info``: what a stack, deep or plate file holds, as text or JSON."""
+    from vfxstereo.io import exr
+
+    path = args.file
+    check_input(path, "file")
+    kind = exr.file_kind(path)
+    if kind == "layerstack":
+        stack = _read_stack(path)
+        info = stack_info(stack, path, exr.read_attributes(path))
+        lines = _stack_lines(stack, info)
+    elif kind == "deep":
+        info = {"kind": "deep", "file": path, **exr.read_deep_header(path)}
+        if info["samples"] == "tidy":
+            info["samples_note"] = DEEP_STATE_NOTE
+        lines = _deep_lines(info)
+    else:
+        from vfxstereo.io import plates
+
+        layout = plates.describe_plate(path)
+        info = {"kind": "plate", **layout.to_dict(), "exr": exr.pipeline_attributes(layout.attributes)}
+        lines = _plate_lines(info)
     if args.json:
         print(json.dumps(info, indent=2, default=str))
-        return 0
-    print(f"{args.stack}: {info['width']}x{info['height']}, {len(info['layers'])} layers, "
-          f"disparities {stack.disparities[0]:g}..{stack.disparities[-1]:g}, "
-          + ("with the plate (zkey composes into it)" if info["plate"] else "no plate (zkey composes into the layers)"))
-    print("  layer  disparity  coverage")
+    else:
+        print("\n".join(lines + _exr_lines(info["exr"])))
+    return 0
+
+
+def _stack_lines(stack, info: dict) -> list[str]:
+    path = info["file"]
+    lines = [f"{path}: {info['width']}x{info['height']}, {len(info['layers'])} layers, "
+             f"disparities {stack.disparities[0]:g}..{stack.disparities[-1]:g}, "
+             + ("with the plate (zkey composes into it)" if info["plate"]
+                else "no plate (zkey composes into the layers)"),
+             "  layer  disparity  coverage"]
     for layer in info["layers"]:
         bar = "#" * int(round(layer["coverage"] * 40))
-        print(f"  {layer['index']:5d}  {layer['disparity']:9.3f}  {layer['coverage']:8.4f}  {bar}")
+        lines.append(f"  {layer['index']:5d}  {layer['disparity']:9.3f}  {layer['coverage']:8.4f}  {bar}")
     cam = stack.camera
     if cam is not None:
         pos = ", ".join(f"{p[0]:g}" if p[1] == 0 else f"({p[0]:g},{p[1]:g})" for p in cam.positions)
-        print(f"  camera: views at [{pos}], reference {cam.reference_index} at {cam.reference[0]:g}"
-              + (f", focal {cam.focal:g} px, baseline {cam.baseline:g}" if cam.focal and cam.baseline else "")
-              + (" (general matrices)" if cam.is_general else ""))
-    for key, value in sorted(stack.metadata.items()):
+        lines.append(f"  camera: views at [{pos}], reference {cam.reference_index} at {cam.reference[0]:g}"
+                     + (f", focal {cam.focal:g} px, baseline {cam.baseline:g}" if cam.focal and cam.baseline
+                        else "")
+                     + (" (general matrices)" if cam.is_general else ""))
+    return lines + _metadata_lines(stack.metadata)
+
+
+_SHOWN_AS_EXR = ("source_files", "source_views", "frames_per_second", "time_code")  # by _exr_lines
+
+
+def _metadata_lines(metadata: dict) -> list[str]:
+    lines = []
+    for key, value in sorted(metadata.items()):
+        if key in _SHOWN_AS_EXR:
+            continue
         text = json.dumps(value, default=str)
-        print(f"  {key}: {text if len(text) < 100 else text[:97] + '...'}")
-    return 0
+        lines.append(f"  {key}: {text if len(text) < 100 else text[:97] + '...'}")
+    return lines
+
+
+def _deep_lines(info: dict) -> list[str]:
+    layers = info["layers"]
+    lines = [f"{info['file']}: deep scanline EXR, {info['width']}x{info['height']}, {len(layers)} layers, "
+             f"channels {', '.join(info['channels'])}",
+             f"  {info.get('samples_note') or 'samples: ' + str(info['samples'])}",
+             "  layer  disparity  depth (Z = ZBack)"]
+    lines += [f"  {la['index']:5d}  {la['disparity']:9.3f}  {la['depth']:.6g}" for la in layers]
+    return lines + _metadata_lines(info["metadata"])
+
+
+def _plate_lines(info: dict) -> list[str]:
+    parts = info["parts"]
+    if info["multi_view"]:
+        views = ", ".join(v["name"] + (" (default)" if v["default"] else "") for v in info["views"])
+        head = (f"{info['file']}: multi-view EXR, {len(parts)} part{'s' * (len(parts) > 1)}, "
+                f"{len(info['views'])} views: {views}")
+    else:
+        head = f"{info['file']}: an image, {len(parts)} part{'s' * (len(parts) > 1)}, not multi-view"
+    lines = [head]
+    for part in parts:
+        name = f" {part['name']!r}" if part["name"] else ""
+        view = f", view {part['view']}" if part["view"] else ""
+        deep = ", deep" if part["deep"] else ""
+        lines.append(f"  part {part['index']}{name}: {part['width']}x{part['height']}{view}{deep}, channels "
+                     f"{', '.join(part['channels'])}")
+    for v in info["views"]:
+        if "width" not in v:
+            lines.append(f"  view {v['name']}: no channels")
+            continue
+        colour = ", ".join(v["colour"]) if v["colour"] else "none found"
+        lines.append(f"  view {v['name']}: {v['width']}x{v['height']}, colour from {colour} "
+                     f"(channels {', '.join(v['channels'])})")
+    return lines
+
+
+def _exr_lines(attributes: dict) -> list[str]:
+    lines = []
+    for key in ("framesPerSecond", "timeCode", "sources", "views"):
+        if key in attributes:
+            value = attributes[key]
+            if key == "framesPerSecond":
+                value = f"{value[0]}/{value[1]} ({value[0] / value[1]:.6g} fps)"
+            elif isinstance(value, list):
+                value = ", ".join(value)
+            lines.append(f"  {key}: {value}")
+    lines += [f"  {key}: present (general cameras)" for key in ("worldToCamera", "worldToNDC") if key in attributes]
+    return lines
 
 
 # --------------------------------------------------------------------------------------------------------
@@ -548,7 +668,11 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("solve", parents=[common], help="solve a layer stack from K views",
                        description="Solve a stack of premultiplied RGBA layers (one per disparity plane) from "
                                    "K views (Szeliski & Golland 1999).")
-    s.add_argument("views", nargs="*", help="view files (or frame patterns), ordered along the baseline")
+    s.add_argument("views", nargs="*", help="view files (or frame patterns), ordered along the baseline; or one "
+                                            "multi-view EXR (or a frame pattern of them)")
+    s.add_argument("--views", dest="view_names", metavar="NAMES",
+                   help="views of a multi-view EXR to solve, in baseline order: left,right (default: all, in the "
+                        "file's order)")
     s.add_argument("-o", "--output", required=True, help="stack EXR (multilayer)")
     s.add_argument("--positions", help="camera positions P0,P1,... in view steps (default 0..K-1)")
     s.add_argument("--reference", type=int, default=None, help="index of the reference view (default middle)")
@@ -558,7 +682,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="paper (default), zkey (paper + edge matting: best soft edges), literal (the paper "
                         "as written), wta, fig6a..fig6e (the paper's configurations)")
     s.add_argument("--dataset", help="folder with a dataset.json (views, positions, reference)")
-    s.add_argument("--disparity-out", help="EXR with the sub-pixel disparity of the reference camera (channel Z)")
+    s.add_argument("--disparity-out", help="EXR with the sub-pixel disparity of the reference camera (channels "
+                                           "Y and Z, the same values)")
     s.add_argument("--deep-out", help="deep EXR of the stack (R,G,B,A,Z,ZBack)")
     s.add_argument("--cameras", help="JSON with general cameras: matrices (K 3x4) and M0 (4x4)")
     s.add_argument("--previews", help="folder for PNG previews (contact sheet of layers, disparity, flat)")
@@ -593,8 +718,8 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--holdout-out")
     sp.set_defaults(func=cmd_split)
 
-    i = sub.add_parser("info", help="describe a stack file")
-    i.add_argument("stack")
+    i = sub.add_parser("info", help="describe a stack, deep or plate file (views, parts, channels)")
+    i.add_argument("file", help="a stack EXR, a deep EXR, or a plate (multi-view EXR or any image)")
     i.add_argument("--json", action="store_true", help="machine-readable output")
     i.set_defaults(func=cmd_info, quiet=True, verbose=False)
     return p

@@ -22,8 +22,11 @@ def srgb_decode(v):
     return np.where(v <= 0.04045, v / 12.92, ((v + 0.055) / 1.055) ** 2.4)
 
 
-def write(path, pixels, fmt, *, names=None, unassociated=False, parts=None):
-    """Write ``pixels`` (H, W, C) with OIIO; multi-part: ``parts`` = [(name, channelnames, pixels), ...]."""
+def write(path, pixels, fmt, *, names=None, unassociated=False, parts=None, header=None):
+    """Write ``pixels`` (H, W, C) with OIIO; multi-part: ``parts`` = [(name, channelnames, pixels), ...].
+
+    ``header``: extra attributes; a tuple of str becomes a string vector, ``smpte:TimeCode`` a time code.
+    """
     path = str(path)
     out = oiio.ImageOutput.create(path)
     if parts:
@@ -49,6 +52,13 @@ def write(path, pixels, fmt, *, names=None, unassociated=False, parts=None):
         spec.channelnames = tuple(names)
     if unassociated:
         spec.attribute("oiio:UnassociatedAlpha", 1)
+    for key, value in (header or {}).items():
+        if key == "smpte:TimeCode":
+            spec.attribute(key, oiio.TypeTimeCode, value)
+        elif isinstance(value, tuple):
+            spec.attribute(key, oiio.TypeDesc(f"string[{len(value)}]"), value)
+        else:
+            spec.attribute(key, value)
     assert out.open(path, spec), oiio.geterror()
     assert out.write_image(pixels), out.geterror()
     out.close()
@@ -258,6 +268,126 @@ class TestReadViews:
         trunc.write_bytes(data[: len(data) // 2])
         with pytest.raises(VfxStereoError, match="cannot read .*trunc.exr"):
             read_plate(trunc)
+
+
+# ---------------------------------------------------------------------------------------------------------
+LAYOUTS = ["single", "single-named", "multipart"]
+
+
+class TestMultiView:
+    """One EXR holding the views (OpenEXR's multi-view convention), written by OpenEXR.File or OIIO."""
+
+    @pytest.fixture
+    def views(self, rng):
+        return {name: rng.uniform(0.0, 2.0, (5, 7, 3)).astype(np.float32) for name in ("left", "centre", "right")}
+
+    @pytest.mark.parametrize("layout", LAYOUTS)
+    def test_reads_every_view_in_the_file_order(self, tmp_path, views, layout, multiview_exr):
+        path = multiview_exr(tmp_path / "plate.exr", views, layout)
+        view_set = plates.read_view_set(path)
+        assert view_set.views == ["left", "centre", "right"]
+        assert view_set.files == [str(path)] * 3
+        np.testing.assert_array_equal(view_set.pixels, np.stack(list(views.values())))  # float: linear as is
+        np.testing.assert_array_equal(read_views(path), view_set.pixels)
+
+    @pytest.mark.parametrize("layout", LAYOUTS)
+    def test_picks_views_in_the_order_asked(self, tmp_path, views, layout, multiview_exr):
+        path = multiview_exr(tmp_path / "plate.exr", views, layout)
+        got = read_views(path, views=["right", "left"])
+        np.testing.assert_array_equal(got, np.stack([views["right"], views["left"]]))
+        np.testing.assert_array_equal(read_plate(path, view="centre"), views["centre"])
+        np.testing.assert_array_equal(read_plate(path), views["left"])  # without a view: the default one
+
+    @pytest.mark.parametrize("layout", LAYOUTS)
+    def test_describe_lists_views_parts_and_channels(self, tmp_path, views, layout, multiview_exr):
+        layout_ = plates.describe_plate(multiview_exr(tmp_path / "plate.exr", views, layout))
+        info = layout_.to_dict()
+        assert [v["name"] for v in info["views"]] == ["left", "centre", "right"]
+        assert [v["default"] for v in info["views"]] == [True, False, False]
+        assert all((v["width"], v["height"]) == (7, 5) for v in info["views"])
+        if layout == "multipart":
+            assert info["multi_part"] and [p["view"] for p in info["parts"]] == ["left", "centre", "right"]
+            assert [p["name"] for p in info["parts"]] == ["rgba.left", "rgba.centre", "rgba.right"]
+            assert info["views"][2]["colour"] == ["R", "G", "B"]
+        elif layout == "single":
+            assert not info["multi_part"] and len(info["parts"]) == 1
+            assert info["views"][0]["colour"] == ["R", "G", "B"]
+            assert info["views"][2]["colour"] == ["right.R", "right.G", "right.B"]
+            assert "right.Z" in info["views"][2]["channels"]
+            assert not any("tmp.Z" in v["channels"] for v in info["views"])  # belongs to no view
+        else:
+            assert info["views"][0]["colour"] == ["left.R", "left.G", "left.B"]
+
+    def test_channel_to_view_rules_of_openexr(self, tmp_path, rng):
+        """OpenEXR's ImfMultiView.h examples: R, left.Z, diffuse.left.R are left; tmp.R, right.diffuse.R none."""
+        names = ["R", "G", "B", "left.Z", "diffuse.left.R", "right.R", "right.G", "right.B", "diffuse.right.R",
+                 "tmp.R", "right.diffuse.R", "diffuse.tmp.R"]
+        px = rng.random((3, 4, len(names))).astype(np.float32)
+        path = write(tmp_path / "rules.exr", px, "float", names=names, header={"multiView": ("left", "right")})
+        layout = plates.describe_plate(path)
+        got = {v: sorted(stored for _, stored, _ in layout.view_channels[v]) for v in layout.views}
+        assert got == {"left": sorted(["R", "G", "B", "left.Z", "diffuse.left.R"]),
+                       "right": sorted(["right.R", "right.G", "right.B", "diffuse.right.R"])}
+        within = {stored: name for _, stored, name in layout.view_channels["right"]}
+        assert within["diffuse.right.R"] == "diffuse.R" and within["right.G"] == "G"
+        right = px[..., [names.index(f"right.{c}") for c in "RGB"]]
+        np.testing.assert_array_equal(read_plate(path, view="right"), right)
+
+    def test_frame_rate_and_time_code_of_the_file(self, tmp_path, views, multiview_exr):
+        from fractions import Fraction
+
+        import OpenEXR
+
+        tc = OpenEXR.TimeCode()
+        tc.hours, tc.minutes, tc.seconds, tc.frame = 1, 0, 10, 12
+        path = multiview_exr(tmp_path / "plate.exr", views, "single",
+                             header={"framesPerSecond": Fraction(24, 1), "timeCode": tc})
+        meta = plates.read_view_set(path, views=["left", "right"]).metadata(reference=1)
+        assert meta == {"source_files": [str(path)] * 2, "source_views": ["left", "right"],
+                        "frames_per_second": [24, 1], "time_code": [0x01001012, 0]}
+
+    def test_separate_files_take_the_reference_views_time_code(self, tmp_path, rng):
+        paths = []
+        for k in range(3):
+            spec_attrs = {"smpte:TimeCode": (0x01000000 + k, 0)} if k else {}
+            paths.append(write(tmp_path / f"v{k}.exr", rng.random((3, 4, 3)).astype(np.float32), "float",
+                               header=spec_attrs))
+        view_set = plates.read_view_set(paths)
+        assert view_set.views is None
+        assert view_set.metadata(reference=2)["time_code"] == [0x01000002, 0]
+        assert view_set.metadata(reference=0)["time_code"] == [0x01000001, 0]  # v0 has none: the next one
+        assert "source_views" not in view_set.metadata() and "frames_per_second" not in view_set.metadata()
+
+    @pytest.mark.parametrize("layout", LAYOUTS)
+    def test_a_view_the_file_lacks_lists_the_views_it_has(self, tmp_path, views, layout, multiview_exr):
+        path = multiview_exr(tmp_path / "plate.exr", views, layout)
+        with pytest.raises(VfxStereoError, match="has no view 'middle'; the views of .*plate.exr: left, centre, "
+                                                 "right") as err:
+            read_views(path, views=["left", "middle"])
+        assert "\n" not in str(err.value)
+        with pytest.raises(VfxStereoError, match="asked for twice"):
+            read_views(path, views=["left", "left"])
+        with pytest.raises(VfxStereoError, match="at least 2 views, got 1 .*left, centre, right"):
+            read_views(path, views=["right"])
+        with pytest.raises(VfxStereoError, match="has no view 'up'"):
+            read_plate(path, view="up")
+
+    def test_views_of_different_sizes_are_refused(self, tmp_path, views, multiview_exr):
+        views["right"] = np.zeros((6, 7, 3), np.float32)
+        path = multiview_exr(tmp_path / "plate.exr", views, "multipart")
+        with pytest.raises(VfxStereoError, match="view right is 7x6 but view left is 7x5 .*left, centre, right"):
+            read_views(path)
+        np.testing.assert_array_equal(read_views(path, views=["centre", "left"])[1], views["left"])
+
+    def test_a_plain_file_is_not_multi_view(self, tmp_path, rng):
+        path = write(tmp_path / "plain.exr", rng.random((3, 4, 3)).astype(np.float32), "float")
+        with pytest.raises(VfxStereoError, match="at least two views, got 1: .*plain.exr is not a multi-view"):
+            read_views(path)
+        with pytest.raises(VfxStereoError, match="not a multi-view EXR .*views of .*plain.exr: none"):
+            read_views(path, views=["left", "right"])
+        with pytest.raises(VfxStereoError, match="one multi-view EXR, but 2 files"):
+            read_views([path, path], views=["left", "right"])
+        assert plates.describe_plate(path).to_dict()["views"] == []
 
 
 # ---------------------------------------------------------------------------------------------------------

@@ -41,7 +41,27 @@ attribute                   type          value
 ``vfxstereo/camera``        string        JSON of :meth:`Camera.to_dict` (absent when the stack has none)
 ``vfxstereo/metadata``      string        JSON of :attr:`LayerStack.metadata`
 ``vfxstereo/plate``         string        :data:`PLATE_LAYER` when the file holds the plate (below)
+``vfxstereo/sources``       string[K]     the plate files the stack was solved from, one per view (metadata
+                                          ``source_files``)
+``vfxstereo/views``         string[K]     their view names, when the views came from one multi-view EXR
+                                          (metadata ``source_views``)
 ==========================  ============  ==================================================================
+
+Standard OpenEXR attributes, where they apply (read back with :func:`pipeline_attributes`):
+
+==================  ========  ==========================================================================
+attribute           type      value
+==================  ========  ==========================================================================
+``worldToCamera``   m44f      general cameras only (:attr:`Camera.is_general`): world to the reference
+                              camera's space (x right, y down, z forward), from ``M0``; see
+                              :func:`camera_matrices`
+``worldToNDC``      m44f      general cameras only: world to the reference camera's NDC (x, y in [0, 1]
+                              across the frame from the top-left corner, z = disparity)
+``framesPerSecond`` rational  metadata ``frames_per_second`` ``[n, d]``, copied from the plates
+``timeCode``        timecode  metadata ``time_code`` ``[timeAndFlags, userData]``, copied from the plates
+==================  ========  ==========================================================================
+
+Matrices are stored as OpenEXR (Imath) stores them: for row vectors, ``[X Y Z 1] @ M``.
 
 The plate (:attr:`LayerStack.plate`, the reference view the stack was solved from, which z-keying composes
 into) is stored after the layers as one more layer, ``plate.Combined.R/G/B/A`` with A = 1: Blender's Image
@@ -57,12 +77,30 @@ A deep scanline EXR with channels ``R, G, B, A, Z, ZBack`` (float32). Each pixel
 with non-zero alpha, nearest first. ``Z = ZBack`` (point samples): a layer is a plane at one depth, so a
 sample has no thickness; thick samples would make deep merges split a layer's alpha as if it were fog
 between planes. Depths strictly decrease with disparity, so the samples are sorted and non-overlapping:
-the header says ``deepImageState = tidy`` (the standard typed attribute, see :func:`_mark_tidy`).
-Depths come from :func:`deep_depths`.
+tidy. Depths come from :func:`deep_depths`.
+
+The file does not carry OpenEXR's optional ``deepImageState`` attribute: OpenEXR's own Python module (3.5.3,
+and its sources as of August 2026) raises "unsupported attribute type: deepImageState" on any
+file that has it, and pipeline tools open deep files with exactly that module. The guarantee is written as
+the string ``vfxstereo/deepImageState = "tidy"`` instead (:data:`DEEP_STATE`), which every reader accepts;
+``vfxstereo info`` reports it. A reader that finds no ``deepImageState`` takes the samples as messy
+(OpenEXR's default) and tidies them if it needs to, which changes nothing in samples that are tidy already.
+
+=============  ==========================================================================================
+application    what it shows
+=============  ==========================================================================================
+OpenEXR        ``OpenEXR.File(path)``: header, and channels ``RGBA``, ``Z``, ``ZBack`` as (H, W) object
+               arrays of per-pixel sample arrays (``None`` where a pixel has no samples)
+oiiotool       ``--info -v`` lists ``deep float`` channels; ``--flatten`` composites the samples
+Blender 5.0    the flattened image (OpenEXR composites the samples when Blender opens the file): an IMAGE
+               with the pixels of :meth:`LayerStack.flatten`; the samples themselves are not reachable
+=============  ==========================================================================================
 
 Plain images (:func:`write_image` / :func:`read_image`)
 -------------------------------------------------------
-Flat files of any OIIO format for comps (RGBA), disparity maps (:data:`DISPARITY_CHANNELS`) and the like.
+Flat files of any OIIO format for comps (RGBA), disparity maps (:func:`write_disparity`) and the like.
+Blender's Image node reads RGBA and grey ``Y`` EXRs exactly; a lone ``Z`` channel it shows as black, which
+is why a disparity map holds its values twice (:data:`DISPARITY_CHANNELS`).
 """
 
 from __future__ import annotations
@@ -70,7 +108,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import struct
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -93,10 +130,12 @@ output."""
 PLATE_LAYER = "plate"
 """Layer name of the plate in a stack file (disparity layers are named ``L<i>_d<d>``, so it cannot clash)."""
 
-DISPARITY_CHANNELS = ("Z",)
-"""Channel name for disparity maps written with :func:`write_image`. Nuke's own ``depth.Z`` holds
-``1/distance`` (far = 0, larger is nearer), the same sense as disparity, so Nuke's Z tools read it with
-their ``far = 0`` depth setting; Blender's Depth is a distance (larger is farther) and needs inverting."""
+DISPARITY_CHANNELS = ("Y", "Z")
+"""Channels of a disparity map (:func:`write_disparity`), both holding the disparity. ``Y``: Blender's
+Image node and every viewer show it as a grey image with the exact values (Blender shows a lone ``Z``
+channel as black). ``Z``: Nuke's ``depth.Z`` holds ``1/distance`` (far = 0, larger is nearer), the same
+sense as disparity, so Nuke's Z tools read it with their ``far = 0`` depth setting; Blender's Depth is a
+distance (larger is farther) and needs inverting."""
 
 DEEP_CHANNELS = ("R", "G", "B", "A", "Z", "ZBack")
 """Channels of a deep stack, in file order."""
@@ -111,7 +150,10 @@ HALF_MAX = 65504.0
 _MAX_CHANNELS = 4096  # OIIO's EXR writer refuses more channels than this in one part
 _ROWS_PER_CHUNK = 64  # rows converted at a time: bounds the extra memory of write/read to a strip
 _COMPRESSIONS = ("none", "rle", "zips", "zip", "piz", "pxr24", "b44", "b44a", "dwaa", "dwab")
-_TIDY_PLACEHOLDER = "tidy:vfxs"  # 9 bytes: "string\0" + size + 9 bytes == "deepImageState\0" + size + 1
+
+DEEP_STATE = "vfxstereo/deepImageState"
+"""Header attribute of deep files stating their samples' state, ``"tidy"`` (OpenEXR's own typed
+``deepImageState`` is left out: OpenEXR's Python module refuses files that carry it)."""
 
 
 def _oiio():
@@ -183,6 +225,156 @@ def _common_header(spec, stack: LayerStack, kind: str) -> None:
     cs = _colorspace_of(stack.metadata)
     if cs:
         spec.attribute("oiio:ColorSpace", cs)
+    _pipeline_header(spec, stack)
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Standard attributes: cameras, frame rate, time code, sources
+
+
+def _pipeline_header(spec, stack: LayerStack) -> None:
+    """The standard OpenEXR attributes that apply, and the source plates (module docstring)."""
+    oiio = _oiio()
+    meta = stack.metadata
+    for key, attribute in (("source_files", "vfxstereo/sources"), ("source_views", "vfxstereo/views")):
+        names = meta.get(key)
+        if names is None:
+            continue
+        if not (isinstance(names, list | tuple) and names and all(isinstance(n, str) for n in names)):
+            raise VfxStereoError(f"metadata {key!r} must be a list of names, got {names!r}")
+        spec.attribute(attribute, oiio.TypeDesc(f"string[{len(names)}]"), tuple(names))
+    fps = meta.get("frames_per_second")
+    if fps is not None:
+        spec.attribute("framesPerSecond", oiio.TypeRational, _rational(fps))
+    time_code = meta.get("time_code")
+    if time_code is not None:
+        spec.attribute("smpte:TimeCode", oiio.TypeTimeCode, _time_code_words(time_code))
+    if stack.camera is not None and stack.camera.is_general:
+        for name, m in camera_matrices(stack.camera, stack.shape[1:]).items():
+            spec.attribute(name, oiio.TypeMatrix44, tuple(m.astype(np.float32).reshape(-1).tolist()))
+
+
+def _int_pair(key: str, value, low: tuple[int, int], high: tuple[int, int], what: str) -> tuple[int, int]:
+    """``value`` as two integers with ``low[i] <= v[i] < high[i]``, or an error naming the metadata ``key``."""
+    ok = isinstance(value, list | tuple) and len(value) == 2
+    try:
+        pair = tuple(int(v) for v in value) if ok else ()
+        ok = ok and all(float(v) == p and lo <= p < hi for v, p, lo, hi in zip(value, pair, low, high, strict=True))
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise VfxStereoError(f"metadata {key!r} must be {what}, got {value!r}")
+    return pair
+
+
+def _rational(value) -> tuple[int, int]:
+    return _int_pair("frames_per_second", value, (-2**31, 1), (2**31, 2**31),
+                     "[numerator, denominator] integers with a positive denominator")
+
+
+def _time_code_words(value) -> tuple[int, int]:
+    return _int_pair("time_code", value, (0, 0), (2**32, 2**32),
+                     "the two 32-bit words [timeAndFlags, userData] of an OpenEXR timeCode")
+
+
+def time_code_text(words) -> str:
+    """``HH:MM:SS:FF`` of an OpenEXR/SMPTE time code given as ``[timeAndFlags, userData]`` (BCD fields).
+
+    A drop-frame code separates the frames with ``;`` (``01:00:00;02``).
+    """
+    t = int(words[0])
+
+    def bcd(shift: int, tens_bits: int) -> int:
+        return ((t >> (shift + 4)) & ((1 << tens_bits) - 1)) * 10 + ((t >> shift) & 0xF)
+
+    drop = ";" if t & (1 << 6) else ":"
+    return f"{bcd(24, 2):02d}:{bcd(16, 3):02d}:{bcd(8, 3):02d}{drop}{bcd(0, 2):02d}"
+
+
+def camera_matrices(camera: Camera, shape: tuple[int, int]) -> dict[str, np.ndarray]:
+    """``worldToCamera`` and ``worldToNDC`` of the reference camera of general cameras, as OpenEXR stores them.
+
+    ``M0`` maps world ``[X Y Z 1]`` to the reference camera's ``[x y 1 d]`` (pixel centres at integer
+    ``(col, row)``). Its first three rows are a projection ``P0 = K [R | t]``, split by an RQ decomposition
+    (K upper triangular with a positive diagonal, R a rotation; ``P0`` is first scaled so that ``det`` of its
+    left 3x3 is positive, i.e. points in front of the camera get ``z > 0``). Camera space is then x right,
+    y down (image rows), z forward. NDC has ``x, y`` in [0, 1] across the frame, ``(0, 0)`` at the top-left
+    corner of the top-left pixel, and ``z = d``, the disparity; its homogeneous ``w`` is the camera-space
+    depth z.
+
+    Parameters
+    ----------
+    camera : Camera
+        General cameras (:attr:`Camera.is_general`).
+    shape : tuple of int
+        ``(H, W)`` of the frame.
+
+    Returns
+    -------
+    dict
+        ``{"worldToCamera": (4, 4), "worldToNDC": (4, 4)}``, float64, for row vectors: ``[X Y Z 1] @ M``
+        (the transpose of the usual column-vector matrix, as OpenEXR's Imath stores it).
+
+    Raises
+    ------
+    VfxStereoError
+        If the cameras are not general, or ``M0``'s projection is degenerate.
+    """
+    if not camera.is_general:
+        raise VfxStereoError("worldToCamera and worldToNDC need general cameras (matrices and M0)")
+    H, W = int(shape[0]), int(shape[1])
+    M0 = np.asarray(camera.M0, dtype=np.float64)
+    P0 = M0[:3]  # rows x, y, 1 of [x y 1 d]
+    det = np.linalg.det(P0[:, :3])
+    if not np.isfinite(det) or abs(det) < 1e-300:
+        raise VfxStereoError("M0's projection (its first three rows) is degenerate: no camera to write")
+    M0 = M0 * np.sign(det)
+    P0 = M0[:3]
+    # RQ of A = K R from the QR of the row-reversed transpose (Hartley & Zisserman, A4.1.1)
+    flip = np.eye(3)[::-1]
+    q, r = np.linalg.qr((flip @ P0[:, :3]).T)
+    K = flip @ r.T @ flip
+    R = flip @ q.T
+    signs = np.diag(np.sign(np.diag(K)))
+    K, R = K @ signs, signs @ R  # positive focal lengths; det(R) = +1 follows from det(A) > 0
+    t = np.linalg.solve(K, P0[:, 3])
+    world_to_camera = np.eye(4)
+    world_to_camera[:3, :3] = R
+    world_to_camera[:3, 3] = t
+    M0 = M0 / K[2, 2]  # the scale of M0 that makes w the camera-space depth z
+    ndc = np.stack([(M0[0] + 0.5 * M0[2]) / W, (M0[1] + 0.5 * M0[2]) / H, M0[3], M0[2]])  # (4, 4)
+    return {"worldToCamera": world_to_camera.T, "worldToNDC": ndc.T}
+
+
+def pipeline_attributes(attributes: dict) -> dict:
+    """The standard OpenEXR and source attributes among a header's ``attributes`` (as OIIO reports them).
+
+    Returns
+    -------
+    dict
+        Present keys only: ``worldToCamera``, ``worldToNDC`` (4x4 nested lists, row-vector layout),
+        ``framesPerSecond`` (``[n, d]``), ``timeCode`` (``"HH:MM:SS:FF"``), ``timeCodeWords``
+        (``[timeAndFlags, userData]``), ``sources``, ``views`` (lists of str), ``deepImageState``
+        (from :data:`DEEP_STATE`, or from a standard attribute as OIIO reports it).
+    """
+    out = {}
+    for key in ("worldToCamera", "worldToNDC"):
+        if key in attributes:
+            out[key] = np.asarray(attributes[key], dtype=np.float64).reshape(4, 4).tolist()
+    if "framesPerSecond" in attributes:
+        out["framesPerSecond"] = [int(v) for v in attributes["framesPerSecond"]]
+    if "smpte:TimeCode" in attributes:
+        words = [int(v) for v in attributes["smpte:TimeCode"]]
+        out["timeCode"] = time_code_text(words)
+        out["timeCodeWords"] = words
+    for key, attribute in (("sources", "vfxstereo/sources"), ("views", "vfxstereo/views")):
+        if attribute in attributes:
+            value = attributes[attribute]
+            out[key] = [value] if isinstance(value, str) else list(value)
+    state = attributes.get(DEEP_STATE, attributes.get("openexr:deepImageState"))
+    if state is not None:
+        out["deepImageState"] = state
+    return out
 
 
 def _write_failed(path, thing) -> VfxStereoError:
@@ -273,6 +465,77 @@ def _stack_extras(spec, path) -> tuple[Camera | None, dict, float]:
     return camera, metadata, white
 
 
+def _layers_header(spec, path) -> dict:
+    """The ``vfxstereo/layers`` map ``{layer name: disparity}``, checked."""
+    layers = _header_json(spec, "vfxstereo/layers", path)
+    if not isinstance(layers, dict) or not layers:
+        raise VfxStereoError(f"{path}: the vfxstereo/layers header is missing or empty")
+    return layers
+
+
+def _header_spec(path):
+    """The ImageSpec of a file's first part (its header; no pixels are read)."""
+    inp, spec = _open_input(path)
+    inp.close()
+    return spec
+
+
+def file_kind(path) -> str:
+    """``"layerstack"`` or ``"deep"`` for vfxstereo's stack files (by their header), else ``"image"``.
+
+    Raises
+    ------
+    VfxStereoError
+        If the file is missing or not an image OIIO reads.
+    """
+    kind = _header_spec(path).get_string_attribute("vfxstereo/format", "")
+    return kind if kind in ("layerstack", "deep") else "image"
+
+
+def read_deep_header(path) -> dict:
+    """What a vfxstereo deep file holds, from its header alone (no sample is read).
+
+    Returns
+    -------
+    dict
+        ``width``, ``height``, ``channels``, ``layers`` (``index``, ``name``, ``disparity``, ``depth``,
+        nearest last), ``samples`` (the state, ``"tidy"``), ``camera`` (dict or None), ``white``,
+        ``metadata`` and ``exr`` (:func:`pipeline_attributes`).
+
+    Raises
+    ------
+    VfxStereoError
+        If the file is missing, unreadable or not a vfxstereo deep file.
+    """
+    spec = _header_spec(path)
+    _check_kind(spec, path, "deep", "write one with vfxstereo.io.exr.write_deep")
+    layers = _layers_header(spec, path)
+    camera, metadata, white = _stack_extras(spec, path)
+    attributes = _attributes(spec)
+    depths = np.asarray(attributes.get("vfxstereo/depths", ()), dtype=np.float64).reshape(-1)
+    if depths.size != len(layers):
+        raise VfxStereoError(f"{path}: the vfxstereo/depths header does not match its {len(layers)} layers")
+    return {
+        "width": spec.width, "height": spec.height, "channels": list(spec.channelnames),
+        "layers": [{"index": i, "name": n, "disparity": float(d), "depth": float(z)}
+                   for i, ((n, d), z) in enumerate(zip(layers.items(), depths, strict=True))],
+        "samples": attributes.get(DEEP_STATE, "unknown"),
+        "camera": camera.to_dict() if camera is not None else None,
+        "white": white, "metadata": metadata, "exr": pipeline_attributes(attributes),
+    }
+
+
+def read_attributes(path) -> dict:
+    """Every header attribute of a file's first part, as OIIO reports them (``worldToCamera``, ...).
+
+    Raises
+    ------
+    VfxStereoError
+        If the file is missing or not an image OIIO reads.
+    """
+    return _attributes(_header_spec(path))
+
+
 # ---------------------------------------------------------------------------------------------------------
 # Multilayer stack
 
@@ -360,9 +623,7 @@ def read_stack(path) -> LayerStack:
         _check_kind(spec, path, "layerstack", hint)
         if spec.deep:
             raise VfxStereoError(f"{path} is a deep image, not a multilayer layer stack")
-        layers = _header_json(spec, "vfxstereo/layers", path)
-        if not isinstance(layers, dict) or not layers:
-            raise VfxStereoError(f"{path}: the vfxstereo/layers header is missing or empty")
+        layers = _layers_header(spec, path)
         camera, metadata, white = _stack_extras(spec, path)
         index = {name: c for c, name in enumerate(spec.channelnames)}
         try:
@@ -470,10 +731,10 @@ def write_deep(path, stack: LayerStack, *, depth=None, compression: str = "zips"
 
     Notes
     -----
-    The header carries ``deepImageState = tidy`` (typed, as OpenEXR defines it), ``vfxstereo/format =
-    "deep"``, ``vfxstereo/disparities`` and ``vfxstereo/depths`` (float[D]), ``vfxstereo/layers`` (JSON of
-    the exact disparities), camera, metadata and white as in the multilayer file. OpenEXR's Python module
-    (3.5) cannot open files with a typed deepImageState attribute: read them with OIIO or :func:`read_deep`.
+    The header carries ``vfxstereo/deepImageState = "tidy"`` (:data:`DEEP_STATE`; not OpenEXR's typed
+    ``deepImageState``, which OpenEXR's Python module refuses), ``vfxstereo/format = "deep"``,
+    ``vfxstereo/disparities`` and ``vfxstereo/depths`` (float[D]), ``vfxstereo/layers`` (JSON of the exact
+    disparities), camera, metadata, white and the standard attributes as in the multilayer file.
 
     OIIO's Python DeepData has no bulk setter: the samples are made into a one-sample-per-pixel deep image
     in C++ (``ImageBufAlgo.deepen``) and copied with one Python call per sample (``copy_deep_sample``, six
@@ -506,7 +767,7 @@ def write_deep(path, stack: LayerStack, *, depth=None, compression: str = "zips"
     spec.z_channel = 4
     spec.deep = True
     spec.attribute("compression", name)
-    spec.attribute("deepImageState", _TIDY_PLACEHOLDER)  # made the typed attribute by _mark_tidy
+    spec.attribute(DEEP_STATE, "tidy")  # not the typed deepImageState: see the module docstring
     _common_header(spec, stack, "deep")
     spec.attribute("vfxstereo/depths", oiio.TypeDesc(f"float[{D}]"), z.tolist())
     names = layer_names(stack.disparities)
@@ -527,7 +788,7 @@ def write_deep(path, stack: LayerStack, *, depth=None, compression: str = "zips"
             if not copy(p, s, source, i, 0):
                 raise VfxStereoError(f"cannot write {path}: OIIO refused deep sample {i}")
     path = Path(path)
-    with open_output(path, spec, before_rename=_mark_tidy) as out:
+    with open_output(path, spec) as out:
         if not out.write_deep_image(deep):
             raise _write_failed(path, out)
     return path
@@ -555,37 +816,6 @@ def _one_sample_per_pixel(data: np.ndarray):
     if deep.has_error or not deep.deep:
         raise VfxStereoError(f"OIIO could not build deep samples: {_one_line(deep.geterror())}")
     return deep.deepdata()
-
-
-def _mark_tidy(path) -> None:
-    r"""Turn the placeholder string ``deepImageState`` into OpenEXR's typed ``deepImageState = tidy``.
-
-    OIIO 3.0 writes ``openexr:deepImageState`` as a string attribute of that name and OIIO 3.2 as a typed
-    attribute that keeps the ``openexr:`` prefix: neither is the standard attribute. The placeholder string
-    (9 bytes) has exactly the size of the typed attribute, so the header is patched in place and no offset
-    in the file moves: ``"string\0" + int32(9) + 9 bytes`` becomes ``"deepImageState\0" + int32(1) + 3``
-    (3 = TIDY in OpenEXR's DeepImageState enum).
-    """
-    placeholder = _TIDY_PLACEHOLDER.encode()
-    with open(path, "r+b") as f:
-        head = f.read(1 << 20)
-        if head[:4] != b"\x76\x2f\x31\x01":
-            raise VfxStereoError(f"cannot mark {path} tidy: not an OpenEXR file")
-        pos = 8
-        while pos < len(head) and head[pos] != 0:
-            end = head.index(b"\0", pos)
-            attr = head[pos:end]
-            tstart = end + 1
-            tend = head.index(b"\0", tstart)
-            typ = head[tstart:tend]
-            (size,) = struct.unpack_from("<i", head, tend + 1)
-            value = head[tend + 5:tend + 5 + size]
-            if attr == b"deepImageState" and typ == b"string" and value == placeholder:
-                f.seek(tstart)
-                f.write(b"deepImageState\0" + struct.pack("<i", 1) + b"\x03")
-                return
-            pos = tend + 5 + size
-    raise VfxStereoError(f"cannot mark {path} tidy: the deepImageState placeholder is missing")
 
 
 @dataclass
@@ -704,7 +934,7 @@ def write_image(path, pixels, *, channels=None, half: bool = False, metadata: di
         map is NaN where no layer qualifies).
     channels : sequence of str, optional
         Channel names; default ``Y``, ``Y,A``, ``R,G,B`` or ``R,G,B,A`` for 1-4 channels. Disparity maps
-        use :data:`DISPARITY_CHANNELS`. A channel ``A`` is flagged as alpha, ``Z`` as depth.
+        are written by :func:`write_disparity`. A channel ``A`` is flagged as alpha, ``Z`` as depth.
     half : bool
         EXR half floats (ignored for integer pixels and other formats).
     metadata : dict, optional
@@ -755,6 +985,31 @@ def write_image(path, pixels, *, channels=None, half: bool = False, metadata: di
         if not out.write_image(arr):
             raise _write_failed(path, out)
     return path
+
+
+def write_disparity(path, disparity, *, metadata: dict | None = None, compression: str = "zip") -> Path:
+    """Write a disparity map as a float EXR with the channels :data:`DISPARITY_CHANNELS`, atomically.
+
+    Parameters
+    ----------
+    path : str or Path
+    disparity : ndarray of shape (H, W)
+        Disparity in px per view step; NaN where undecided (kept as NaN).
+    metadata : dict, optional
+        Header attributes, as for :func:`write_image`.
+    compression : str
+        EXR compression.
+
+    Returns
+    -------
+    Path of the written file. Both channels hold the same float32 values: ``Y`` for Blender and viewers,
+    ``Z`` for depth tools (see :data:`DISPARITY_CHANNELS`).
+    """
+    d = np.asarray(disparity, dtype=np.float32)
+    if d.ndim != 2 or 0 in d.shape:
+        raise VfxStereoError(f"a disparity map must be (H, W), got shape {np.shape(disparity)}")
+    pixels = np.repeat(d[..., None], len(DISPARITY_CHANNELS), axis=-1)
+    return write_image(path, pixels, channels=DISPARITY_CHANNELS, metadata=metadata, compression=compression)
 
 
 def read_image(path) -> tuple[np.ndarray, tuple[str, ...], dict]:

@@ -22,6 +22,27 @@ channel of a single-channel file, a depth pass included, as grey). Depth is a
 Alpha: PNG (and TIFF with unassociated alpha) store straight colour: :func:`read_element` decodes the colour
 first and premultiplies afterwards. EXR and associated-alpha TIFF are premultiplied already.
 
+Multi-view EXR (OpenEXR's multi-view convention, ``ImfMultiView.h``): the views of a stereo or multi-camera
+plate in one file per frame, read by :func:`read_view_set` / :func:`read_views` with one path (and
+``views=``), described by :func:`describe_plate`.
+
+==============  ==========================================================================================
+layout          which channels make view v
+==============  ==========================================================================================
+single part     the header's ``multiView`` (string vector) lists the views, the first is the default view.
+                A channel without a dot (``R``) belongs to the default view; one whose second-to-last
+                dotted part is a view name to that view (``right.R``, ``diffuse.right.R``, and ``left.R``
+                for the default view ``left``); any other (``diffuse.R``, ``right.diffuse.R``) to no view
+multi-part      each part's ``view`` attribute names the view of all its channels (a channel that repeats
+                the view as its second-to-last part, ``left.R`` in the part of ``left``, has it removed).
+                Views are in the order of ``multiView`` when the file has one, else of their first part
+==============  ==========================================================================================
+
+Within a view the channels are named without the view (``left.R`` becomes ``R``, ``diffuse.left.R``
+becomes ``diffuse.R``) and the colour is picked as for a plain file (above). A view's size is that of its
+first part; other-sized parts of the same view (previews) are skipped. Views of different sizes cannot be
+solved together, and are refused.
+
 Shapes: plates ``(H, W, 3)``, elements ``(H, W, 4)`` premultiplied, views ``(K, H, W, 3)``, all float32.
 """
 
@@ -30,6 +51,7 @@ from __future__ import annotations
 import json
 import os
 from dataclasses import dataclass, field
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -54,10 +76,17 @@ class _RawImage:
     is_float: bool
     straight: bool  # the file stores unassociated (straight) alpha
     alpha_name: str | None  # OIIO's alpha channel of the first part
+    attributes: dict = field(default_factory=dict)  # header attributes of the first part
+    view: str | None = None  # the view of a multi-view EXR these channels are
 
     @property
     def shape(self) -> tuple[int, int]:
         return next(iter(self.channels.values())).shape
+
+    @property
+    def label(self) -> str:
+        """The file, and the view if there is one, for messages."""
+        return self.path if self.view is None else f"{self.path} (view {self.view})"
 
 
 def _oiio():
@@ -89,6 +118,7 @@ def _read_raw(path) -> _RawImage:
         channels: dict[str, np.ndarray] = {}
         names: list[str] = []
         first = inp.spec()
+        attributes = _header_attributes(first)
         size = (first.height, first.width)
         is_float = first.format.basetype.name in _FLOAT_BASETYPES
         straight = int(first.get_int_attribute("oiio:UnassociatedAlpha", 0)) == 1
@@ -116,29 +146,33 @@ def _read_raw(path) -> _RawImage:
         inp.close()
     if not channels:
         raise VfxStereoError(f"cannot read {path}: no channels")
-    return _RawImage(path, channels, names, is_float, straight, alpha_name)
+    return _RawImage(path, channels, names, is_float, straight, alpha_name, attributes)
 
 
-def _colour_channels(raw: _RawImage) -> tuple[list[str], str | None]:
-    """Names of the R, G, B channels (a grey channel three times) and of alpha (or None)."""
-    ch = raw.channels
+def _header_attributes(spec) -> dict:
+    return {a.name: a.value for a in spec.extra_attribs}
+
+
+def _colour_channels(names: list[str], alpha_name: str | None, path: str) -> tuple[list[str], str | None]:
+    """Names of the R, G, B channels (a grey channel three times) and of alpha (or None), among ``names``."""
+    ch = set(names)
     if all(c in ch for c in "RGB"):
         return ["R", "G", "B"], "A" if "A" in ch else None
     if "Y" in ch:
         return ["Y"] * 3, "A" if "A" in ch else None
     # layers: "<layer>.R/G/B(/A)"; a render's Combined pass first
-    layers = [n[:-2] for n in raw.names if n.endswith(".R") and n[:-2] + ".G" in ch and n[:-2] + ".B" in ch]
+    layers = [n[:-2] for n in names if n.endswith(".R") and n[:-2] + ".G" in ch and n[:-2] + ".B" in ch]
     if layers:
         layer = next((n for n in layers if "combined" in n.lower()), layers[0])
         return [f"{layer}.{c}" for c in "RGB"], f"{layer}.A" if f"{layer}.A" in ch else None
-    colour = [n for n in raw.names if n != raw.alpha_name and not _is_depth(n)]
+    colour = [n for n in names if n != alpha_name and not _is_depth(n)]
     if not colour:  # a depth-only file (a separate Z pass) is one grey channel
-        colour = [n for n in raw.names if n != raw.alpha_name]
+        colour = [n for n in names if n != alpha_name]
     if len(colour) == 1:
-        return colour * 3, raw.alpha_name
+        return colour * 3, alpha_name
     if len(colour) >= 3:
-        return colour[:3], raw.alpha_name
-    raise VfxStereoError(f"{raw.path} has no colour channels (channels: {', '.join(raw.names)})")
+        return colour[:3], alpha_name
+    raise VfxStereoError(f"{path} has no colour channels (channels: {', '.join(names)})")
 
 
 def _is_depth(name: str) -> bool:
@@ -168,11 +202,17 @@ class Plate:
         The file read.
     colour : ColourInfo
         Source colour space, working space, method (recorded in stack metadata by the solver).
+    attributes : dict
+        Header attributes of the file (of the view's part in a multi-part file), as OIIO reports them.
+    view : str or None
+        The view, when the plate is one view of a multi-view EXR.
     """
 
     pixels: np.ndarray
     path: str
     colour: ColourInfo
+    attributes: dict = field(default_factory=dict)
+    view: str | None = None
 
     @property
     def working_space(self) -> str:
@@ -180,18 +220,22 @@ class Plate:
         return self.colour.working_space
 
     def to_metadata(self) -> dict:
-        """Plain-JSON description: path and colour handling."""
-        return {"path": self.path, **self.colour.to_dict()}
+        """Plain-JSON description: path (and view) and colour handling."""
+        view = {} if self.view is None else {"view": self.view}
+        return {"path": self.path, **view, **self.colour.to_dict()}
 
 
-def read_plate(path, *, colorspace: str | None = None, working_space: str | None = None,
-               return_info: bool = False):
-    """Read an image file as scene-linear RGB in the working space.
+def read_plate(path, *, view: str | None = None, colorspace: str | None = None,
+               working_space: str | None = None, return_info: bool = False):
+    """Read an image file (or one view of a multi-view EXR) as scene-linear RGB in the working space.
 
     Parameters
     ----------
     path : str or Path
         Any file OpenImageIO reads. Alpha, if any, is ignored (the colour is taken as stored).
+    view : str, optional
+        A view of a multi-view EXR (module docstring); default: the file's own colour channels (the
+        default view of a multi-view file).
     colorspace : str, optional
         The file's colour space (the CLI's ``--input-colorspace``): an OCIO name from ``$OCIO`` or the
         built-in config, ``"linear"``, or a colour-science name (see :mod:`vfxstereo.io.color`).
@@ -208,14 +252,30 @@ def read_plate(path, *, colorspace: str | None = None, working_space: str | None
     Raises
     ------
     VfxStereoError
-        Missing, unreadable or corrupt file; unknown colour space.
+        Missing, unreadable or corrupt file; unknown colour space; a view the file does not hold.
     """
-    raw = _read_raw(path)
-    rgb_names, _ = _colour_channels(raw)
+    if view is None:
+        raw = _read_default_view(path)
+    else:
+        layout = describe_plate(path)
+        raw = _read_views_raw(layout, layout.select([view], at_least=1))[0]
+    plate = _decode_plate(raw, colorspace, working_space)
+    return plate if return_info else plate.pixels
+
+
+def _read_default_view(path) -> _RawImage:
+    """A plain file's channels, or the default view's of a multi-view EXR."""
+    layout = describe_plate(path)
+    if not layout.views:
+        return _read_raw(path)
+    return _read_views_raw(layout, layout.select(layout.views[:1], at_least=1))[0]
+
+
+def _decode_plate(raw: _RawImage, colorspace: str | None, working_space: str | None) -> Plate:
+    rgb_names, _ = _colour_channels(raw.names, raw.alpha_name, raw.label)
     rgb = np.stack([raw.channels[n] for n in rgb_names], axis=-1)
     pixels, info = to_working(rgb, colorspace, encoded=not raw.is_float, working=working_space)
-    pixels = np.ascontiguousarray(pixels, dtype=np.float32)
-    return Plate(pixels, str(path), info) if return_info else pixels
+    return Plate(np.ascontiguousarray(pixels, dtype=np.float32), raw.path, info, raw.attributes, raw.view)
 
 
 def read_element(path, *, colorspace: str | None = None, working_space: str | None = None,
@@ -251,7 +311,7 @@ def read_element(path, *, colorspace: str | None = None, working_space: str | No
         Missing, unreadable or corrupt file; unknown colour space; NaN or infinite values.
     """
     raw = _read_raw(path)
-    rgb_names, alpha_name = _colour_channels(raw)
+    rgb_names, alpha_name = _colour_channels(raw.names, raw.alpha_name, raw.label)
     H, W = raw.shape
     rgba = np.empty((H, W, 4), dtype=np.float32)
     for c, n in enumerate(rgb_names):
@@ -274,14 +334,145 @@ def read_element(path, *, colorspace: str | None = None, working_space: str | No
     return (rgba, z, info) if return_info else (rgba, z)
 
 
-def read_views(paths, *, colorspace: str | None = None, working_space: str | None = None,
-               return_info: bool = False):
-    """Read the K views of a plate into one array, checking they can be solved together.
+@dataclass
+class ViewSet:
+    """The K views of a plate, read to be solved together, and where each came from.
+
+    Attributes
+    ----------
+    pixels : ndarray of shape (K, H, W, 3), float32
+        Scene-linear colour in the working space, views in baseline order.
+    files : list of str
+        The file of each view (the one multi-view EXR K times, or K files).
+    views : list of str or None
+        The view names inside a multi-view EXR; None for one file per view.
+    colour : list of ColourInfo
+        How each view was decoded.
+    attributes : list of dict
+        Each view's header attributes, as OIIO reports them.
+    """
+
+    pixels: np.ndarray
+    files: list[str]
+    views: list[str] | None
+    colour: list[ColourInfo]
+    attributes: list[dict]
+
+    def metadata(self, reference: int | None = None) -> dict:
+        """Stack metadata naming the sources; :func:`vfxstereo.io.exr.write_stack` writes it to the header.
+
+        Parameters
+        ----------
+        reference : int, optional
+            Index of the reference view: its frame rate and time code are taken first; views without them
+            are skipped.
+
+        Returns
+        -------
+        dict
+            ``source_files`` (one per view), ``source_views`` (multi-view EXR only), and where a view's file
+            has them, ``frames_per_second`` (``[n, d]``) and ``time_code`` (``[timeAndFlags, userData]``).
+        """
+        out: dict = {"source_files": list(self.files)}
+        if self.views is not None:
+            out["source_views"] = list(self.views)
+        order = list(range(len(self.files)))
+        if reference is not None and 0 <= int(reference) < len(order):
+            order.insert(0, order.pop(int(reference)))
+        for k in order:
+            for key, value in _timing(self.attributes[k]).items():
+                out.setdefault(key, value)
+        return out
+
+
+def _timing(attributes: dict) -> dict:
+    """``frames_per_second`` and ``time_code`` of a header, when it has them."""
+    out = {}
+    fps = attributes.get("framesPerSecond", attributes.get("FramesPerSecond"))
+    if isinstance(fps, tuple | list) and len(fps) == 2 and int(fps[1]) > 0:
+        out["frames_per_second"] = [int(fps[0]), int(fps[1])]
+    elif isinstance(fps, int | float) and fps > 0:  # some formats (DPX) store a float rate
+        rate = Fraction(float(fps)).limit_denominator(1001)
+        out["frames_per_second"] = [rate.numerator, rate.denominator]
+    code = attributes.get("smpte:TimeCode")
+    if isinstance(code, tuple | list) and len(code) == 2:
+        out["time_code"] = [int(code[0]), int(code[1])]
+    return out
+
+
+def read_view_set(paths, *, views=None, colorspace: str | None = None,
+                  working_space: str | None = None) -> ViewSet:
+    """Read the K views of a plate, from K files or from one multi-view EXR, checking they solve together.
 
     Parameters
     ----------
-    paths : sequence of str or Path
-        The view files, ordered along the baseline (at least two).
+    paths : str, Path or sequence of them
+        K view files ordered along the baseline (K >= 2); or one multi-view EXR (module docstring).
+    views : sequence of str, optional
+        With one multi-view EXR: the views to read, in baseline order (default: all, in the file's order).
+    colorspace, working_space : str, optional
+        As for :func:`read_plate`; the same for every view.
+
+    Returns
+    -------
+    ViewSet
+
+    Raises
+    ------
+    VfxStereoError
+        Fewer than two views; a missing, unreadable or corrupt file (named); ``views`` with several files,
+        or naming a view the file does not hold (the message lists the views it has); views of different
+        sizes (both sizes); NaN or infinite pixels (the file, the view and how many pixels).
+    """
+    if isinstance(paths, str | os.PathLike):
+        paths = [paths]
+    paths = [str(p) for p in paths]
+    if isinstance(views, str):
+        views = views.split(",")
+    if not paths:
+        raise VfxStereoError("need at least two views, got 0")
+    for p in paths:
+        if not os.path.isfile(p):
+            raise VfxStereoError(f"view not found: {p}")
+    if len(paths) == 1 or views is not None:
+        if len(paths) != 1:
+            raise VfxStereoError(f"views {', '.join(views)} are picked inside one multi-view EXR, but "
+                                 f"{len(paths)} files were given")
+        layout = describe_plate(paths[0])
+        if not layout.views and views is None:
+            raise VfxStereoError(f"need at least two views, got 1: {paths[0]} is not a multi-view EXR (no "
+                                 "multiView header and no part with a view attribute)")
+        names = layout.select(views)
+        raws = _read_views_raw(layout, names)
+    else:
+        names = None
+        raws = [_read_default_view(p) for p in paths]
+    plates = []
+    for raw in raws:
+        plate = _decode_plate(raw, colorspace, working_space)
+        first = plates[0].pixels if plates else plate.pixels
+        if plate.pixels.shape != first.shape:
+            h, w = plate.pixels.shape[:2]
+            raise VfxStereoError(f"view {raw.label} is {w}x{h} but {raws[0].label} is {first.shape[1]}x"
+                                 f"{first.shape[0]} (width x height); all views must be the same size")
+        bad = int(np.count_nonzero(~np.isfinite(plate.pixels).all(axis=-1)))
+        if bad:
+            raise VfxStereoError(f"view {raw.label} has {bad} pixels with NaN or infinite values")
+        plates.append(plate)
+    return ViewSet(np.stack([pl.pixels for pl in plates]), [pl.path for pl in plates], names,
+                   [pl.colour for pl in plates], [pl.attributes for pl in plates])
+
+
+def read_views(paths, *, views=None, colorspace: str | None = None, working_space: str | None = None,
+               return_info: bool = False):
+    """Read the K views of a plate into one array (:func:`read_view_set` without the bookkeeping).
+
+    Parameters
+    ----------
+    paths : str, Path or sequence of them
+        The view files, ordered along the baseline (at least two); or one multi-view EXR.
+    views : sequence of str, optional
+        With one multi-view EXR: the views to read, in baseline order (default: all, in the file's order).
     colorspace, working_space : str, optional
         As for :func:`read_plate`; the same for every view.
     return_info : bool
@@ -296,34 +487,227 @@ def read_views(paths, *, colorspace: str | None = None, working_space: str | Non
     Raises
     ------
     VfxStereoError
-        Fewer than two views; a missing, unreadable or corrupt file (named); views of different sizes (the
-        first mismatching file and both sizes); NaN or infinite pixels (the file and how many pixels).
+        As :func:`read_view_set`.
     """
-    if isinstance(paths, str | os.PathLike):
-        paths = [paths]
-    paths = [str(p) for p in paths]
-    if len(paths) < 2:
-        raise VfxStereoError(f"need at least two views, got {len(paths)}")
-    for p in paths:
-        if not os.path.isfile(p):
-            raise VfxStereoError(f"view not found: {p}")
-    views = None
-    infos = []
-    for k, p in enumerate(paths):
-        plate = read_plate(p, colorspace=colorspace, working_space=working_space, return_info=True)
-        px = plate.pixels
-        if views is None:
-            views = np.empty((len(paths),) + px.shape, dtype=np.float32)
-        elif px.shape != views.shape[1:]:
-            raise VfxStereoError(
-                f"view {p} is {px.shape[1]}x{px.shape[0]} but {paths[0]} is {views.shape[2]}x{views.shape[1]}"
-                " (width x height); all views must be the same size")
-        bad = int(np.count_nonzero(~np.isfinite(px).all(axis=-1)))
-        if bad:
-            raise VfxStereoError(f"view {p} has {bad} pixels with NaN or infinite values")
-        views[k] = px
-        infos.append(plate.colour)
-    return (views, infos) if return_info else views
+    view_set = read_view_set(paths, views=views, colorspace=colorspace, working_space=working_space)
+    return (view_set.pixels, view_set.colour) if return_info else view_set.pixels
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Multi-view EXR: which channels make which view (module docstring)
+
+
+@dataclass
+class PlatePart:
+    """One part (OIIO subimage) of an image file, from its header.
+
+    Attributes
+    ----------
+    index : int
+    name : str
+        The part's name ("" when it has none).
+    view : str or None
+        Its ``view`` attribute (multi-part multi-view files).
+    width, height : int
+        Size of its data window.
+    channels : tuple of str
+        Channel names as stored.
+    is_float : bool
+    deep : bool
+    attributes : dict
+        Its header attributes, as OIIO reports them.
+    """
+
+    index: int
+    name: str
+    view: str | None
+    width: int
+    height: int
+    channels: tuple[str, ...]
+    is_float: bool
+    deep: bool
+    attributes: dict = field(default_factory=dict, repr=False)
+
+
+@dataclass
+class PlateLayout:
+    """What an image file holds, from its headers alone: its parts, its views and the channels of each view.
+
+    Attributes
+    ----------
+    path : str
+    parts : list of PlatePart
+    views : list of str
+        The views, in the file's order, the default view first; empty when the file is not multi-view.
+    view_channels : dict
+        ``view -> [(part index, channel as stored, channel name within the view), ...]``.
+    """
+
+    path: str
+    parts: list[PlatePart]
+    views: list[str]
+    view_channels: dict[str, list[tuple[int, str, str]]]
+
+    @property
+    def multi_view(self) -> bool:
+        """True when the file holds views (a ``multiView`` header or parts with a ``view``)."""
+        return bool(self.views)
+
+    @property
+    def attributes(self) -> dict:
+        """Header attributes of the first part."""
+        return self.parts[0].attributes
+
+    def _have(self) -> str:
+        return f"the views of {self.path}: {', '.join(self.views) if self.views else 'none'}"
+
+    def view_size(self, view: str) -> tuple[int, int]:
+        """``(height, width)`` of ``view``."""
+        chans = self.view_channels.get(view)
+        if not chans:
+            raise VfxStereoError(f"view {view!r} has no channels in {self.path} ({self._have()})")
+        part = self.parts[chans[0][0]]
+        return part.height, part.width
+
+    def select(self, views=None, *, at_least: int = 2) -> list[str]:
+        """The views to read, checked: all views by default, else ``views`` (names), in that order.
+
+        Raises
+        ------
+        VfxStereoError
+            The file is not multi-view; a name it does not hold, or one given twice; fewer than
+            ``at_least`` views; views of different sizes. The message lists the views the file has.
+        """
+        if not self.views:
+            raise VfxStereoError(f"{self.path} is not a multi-view EXR (no multiView header and no part with a "
+                                 f"view attribute): {self._have()}")
+        names = list(self.views) if views is None else [str(v).strip() for v in views]
+        for i, v in enumerate(names):
+            if v not in self.views:
+                raise VfxStereoError(f"{self.path} has no view {v!r}; {self._have()}")
+            if v in names[:i]:
+                raise VfxStereoError(f"view {v!r} is asked for twice; {self._have()}")
+        if len(names) < at_least:
+            raise VfxStereoError(f"need at least {at_least} views, got {len(names)} "
+                                 f"({', '.join(names) or 'none'}); {self._have()}")
+        h0, w0 = self.view_size(names[0])
+        for v in names[1:]:
+            h, w = self.view_size(v)
+            if (h, w) != (h0, w0):
+                raise VfxStereoError(f"view {v} is {w}x{h} but view {names[0]} is {w0}x{h0} (width x height) "
+                                     f"inside {self.path}; the views of a plate must be the same size "
+                                     f"({self._have()})")
+        return names
+
+    def to_dict(self) -> dict:
+        """Plain-JSON description (what ``vfxstereo info`` prints for a plate)."""
+        views = []
+        for v in self.views:
+            chans = self.view_channels.get(v, [])
+            entry = {"name": v, "default": v == self.views[0], "channels": [c for _, c, _ in chans]}
+            if chans:
+                h, w = self.view_size(v)
+                names = [n for _, _, n in chans]
+                try:
+                    colour, _ = _colour_channels(names, "A" if "A" in names else None, self.path)
+                except VfxStereoError:
+                    colour = []
+                stored = dict((n, c) for _, c, n in chans)
+                entry.update(width=w, height=h, colour=[stored[n] for n in colour])
+            views.append(entry)
+        parts = [{"index": p.index, "name": p.name, "view": p.view, "width": p.width, "height": p.height,
+                  "channels": list(p.channels), "deep": p.deep} for p in self.parts]
+        return {"file": self.path, "multi_view": self.multi_view, "multi_part": len(self.parts) > 1,
+                "views": views, "parts": parts}
+
+
+def describe_plate(path) -> PlateLayout:
+    """Parts, views and channels of an image file, from its headers (no pixels are read).
+
+    Raises
+    ------
+    VfxStereoError
+        Missing or unreadable file.
+    """
+    path = str(path)
+    inp = _open(path)
+    parts: list[PlatePart] = []
+    declared: list[list[str]] = []  # each part's multiView list
+    try:
+        sub = 0
+        while inp.seek_subimage(sub, 0):
+            spec = inp.spec()
+            attributes = _header_attributes(spec)
+            listed = attributes.get("multiView") or ()
+            declared.append([listed] if isinstance(listed, str) else [str(v) for v in listed])
+            parts.append(PlatePart(sub, spec.get_string_attribute("name", ""),
+                                   spec.get_string_attribute("view", "") or None, spec.width, spec.height,
+                                   tuple(spec.channelnames), spec.format.basetype.name in _FLOAT_BASETYPES,
+                                   bool(spec.deep), attributes))
+            sub += 1
+    finally:
+        inp.close()
+    if not parts:
+        raise VfxStereoError(f"cannot read {path}: no image in it")
+    views = list(next((d for d in declared if d), []))
+    view_channels: dict[str, list[tuple[int, str, str]]] = {}
+    for part, listed in zip(parts, declared, strict=True):
+        if part.deep:
+            continue
+        for stored in part.channels:
+            view, name = _view_of_channel(stored, part.view, listed)
+            if view is None:
+                continue
+            chans = view_channels.setdefault(view, [])
+            if chans and (parts[chans[0][0]].height, parts[chans[0][0]].width) != (part.height, part.width):
+                continue  # a preview or proxy part of another size
+            if any(n == name for _, _, n in chans):
+                name = f"{part.name}.{name}"
+            chans.append((part.index, stored, name))
+    views += [v for v in view_channels if v not in views]
+    return PlateLayout(path, parts, views, view_channels)
+
+
+def _view_of_channel(channel: str, part_view: str | None, listed: list[str]) -> tuple[str | None, str]:
+    """``(view, name within the view)`` of a stored channel, by OpenEXR's multi-view rules."""
+    comps = channel.split(".")
+    if part_view:
+        if len(comps) >= 2 and comps[-2] == part_view:
+            return part_view, ".".join(comps[:-2] + comps[-1:])
+        return part_view, channel
+    if listed:
+        if len(comps) == 1:
+            return listed[0], channel  # no dot: the default view
+        if comps[-2] in listed:
+            return comps[-2], ".".join(comps[:-2] + comps[-1:])
+    return None, channel  # "tmp.R", "right.diffuse.R": no view at all (OpenEXR's viewFromChannelName)
+
+
+def _read_views_raw(layout: PlateLayout, views: list[str]) -> list[_RawImage]:
+    """The channels of each of ``views``, named within the view; every part needed is read once."""
+    oiio = _oiio()
+    needed = sorted({p for v in views for p, _, _ in layout.view_channels[v]})
+    pixels: dict[int, np.ndarray] = {}
+    inp = _open(layout.path)
+    try:
+        for p in needed:
+            if not inp.seek_subimage(p, 0):
+                raise VfxStereoError(f"cannot read {layout.path}: part {p} is missing")
+            spec = inp.spec()
+            data = inp.read_image(oiio.FLOAT)
+            if data is None or inp.has_error:
+                raise VfxStereoError(f"cannot read {layout.path}: {inp.geterror() or 'corrupt file'}")
+            pixels[p] = np.asarray(data, dtype=np.float32).reshape(spec.height, spec.width, spec.nchannels)
+    finally:
+        inp.close()
+    raws = []
+    for v in views:
+        chans = layout.view_channels[v]
+        channels = {n: pixels[p][..., layout.parts[p].channels.index(c)] for p, c, n in chans}
+        first = layout.parts[chans[0][0]]
+        raws.append(_RawImage(layout.path, channels, [n for _, _, n in chans], first.is_float, False,
+                              "A" if "A" in channels else None, first.attributes, v))
+    return raws
 
 
 # ---------------------------------------------------------------------------------------------------------
