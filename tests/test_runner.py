@@ -74,6 +74,9 @@ def test_request_arguments_are_what_the_real_command_line_parses():
     assert args.views == ["a.png", "b.png", "c.png"] and args.output == "work/out.exr"
     assert (args.positions, args.reference, args.disparities, args.preset, args.frames) == (
         "0,1.5,3", 1, "0:8:0.5", "zkey", "1-3")
+    stereo = cli.build_parser().parse_args(SolveRequest("o.exr", views=("plate.exr",),
+                                                        view_names="left,right").arguments("o.exr"))
+    assert stereo.views == ["plate.exr"] and "left,right" in vars(stereo).values()
     default = cli.build_parser().parse_args(SolveRequest("o.exr", dataset="ds").arguments("o.exr"))
     assert default.preset == cli.build_parser().parse_args(["solve", "x", "-o", "y"]).preset  # no preset given
     with pytest.raises(VfxStereoError, match="either"):

@@ -149,6 +149,8 @@ class SolveRequest:
         A SolveConfig preset name; None: the command's own default.
     frames : str or None
         Frame range for patterns (``1001-1100``); None: the frames on disk.
+    view_names : str or None
+        ``left,right``: the views to read from one multi-view EXR (``--views``); None: all, in file order.
     """
 
     output: str
@@ -159,6 +161,7 @@ class SolveRequest:
     disparities: str | None = None
     preset: str | None = None
     frames: str | None = None
+    view_names: str | None = None
 
     def arguments(self, output: str) -> list[str]:
         """The command-line arguments, writing to ``output`` instead of :attr:`output`."""
@@ -172,7 +175,7 @@ class SolveRequest:
         if self.reference is not None:
             args += ["--reference", str(int(self.reference))]
         for flag, value in (("--disparities", self.disparities), ("--preset", self.preset),
-                            ("--frames", self.frames)):
+                            ("--frames", self.frames), ("--views", self.view_names)):
             if value:
                 args += [flag, str(value)]
         return args

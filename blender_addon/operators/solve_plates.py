@@ -51,6 +51,10 @@ class VFXSTEREO_OT_solve_plates(bpy.types.Operator):
                     "default, else the command's own default")
     frames: bpy.props.StringProperty(
         name="Frames", description="Frame range for frame patterns (1001-1100); empty: the frames on disk")
+    view_names: bpy.props.StringProperty(
+        name="View Names",
+        description="For one multi-view EXR (a stereo plate): the views to read, e.g. left,right; empty: all "
+                    "of them, in the file's order")
     wait: bpy.props.BoolProperty(
         name="Wait", default=False, options={"SKIP_SAVE"},
         description="Return only when the solve has finished (for scripts); from the UI the solve runs in "
@@ -106,7 +110,8 @@ class VFXSTEREO_OT_solve_plates(bpy.types.Operator):
     def draw(self, context):
         """Options beside the file browser."""
         layout = self.layout
-        for name in ("dataset", "output", "positions", "reference", "disparities", "preset", "frames"):
+        for name in ("dataset", "output", "positions", "reference", "disparities", "preset", "frames",
+                     "view_names"):
             layout.prop(self, name)
         layout.label(text=f"Solver: {preferences.describe_solver(preferences.get(context))}")
 
@@ -117,14 +122,13 @@ class VFXSTEREO_OT_solve_plates(bpy.types.Operator):
         Raises
         ------
         VfxStereoError
-            For missing views, a single view, or malformed positions or disparities.
+            For no views (or both views and a dataset), or malformed positions or disparities; the command
+            itself judges the files (one multi-view EXR is enough).
         """
         views = tuple(os.path.join(bpy.path.abspath(self.directory), f.name) for f in self.files if f.name)
         dataset = bpy.path.abspath(self.dataset) if self.dataset else None
         if bool(views) == bool(dataset):
             raise VfxStereoError("choose either view files or a dataset folder")
-        if len(views) == 1 and not frames.is_pattern(views[0]):
-            raise VfxStereoError("solving needs at least two views")
         positions = cli.parse_float_list(self.positions, "Positions") if self.positions.strip() else None
         if positions is not None and views and len(positions) != len(views):
             raise VfxStereoError(f"{len(views)} views need {len(views)} positions, got {len(positions)}")
@@ -140,7 +144,7 @@ class VFXSTEREO_OT_solve_plates(bpy.types.Operator):
         return SolveRequest(output, views, dataset, tuple(positions) if positions else None,
                             self.reference if self.reference >= 0 else None, disparities,
                             self.preset.strip() or prefs.default_preset.strip() or None,
-                            self.frames.strip() or None)
+                            self.frames.strip() or None, self.view_names.strip() or None)
 
     def _run_to_end(self, context):
         wm = context.window_manager

@@ -259,8 +259,11 @@ def test_a_solve_that_fails_reports_the_commands_one_line_error(installed, fresh
 
 
 def test_solve_refuses_bad_options_before_starting(installed, fresh_scene, tmp_path):
-    with pytest.raises(RuntimeError, match="at least two views"):
-        bpy.ops.vfxstereo.solve_plates(directory=str(DEMO), files=[{"name": "view0.png"}])
+    with pytest.raises(RuntimeError, match="either view files or a dataset"):
+        bpy.ops.vfxstereo.solve_plates(directory=str(DEMO), files=[{"name": "view0.png"}], dataset=str(DEMO))
+    with pytest.raises(RuntimeError, match="at least two views"):  # the command's own check, one line
+        bpy.ops.vfxstereo.solve_plates(directory=str(DEMO), files=[{"name": "view0.png"}],
+                                       output=str(tmp_path / "s.exr"))
     with pytest.raises(RuntimeError, match="MIN:MAX"):
         bpy.ops.vfxstereo.solve_plates(dataset=str(DEMO), disparities="4", output=str(tmp_path / "s.exr"))
     assert os.listdir(tmp_path) == []

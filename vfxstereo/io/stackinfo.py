@@ -66,9 +66,7 @@ def read_stack_info(path) -> StackInfo:
         exr._check_kind(spec, path, "layerstack", "write one with vfxstereo solve")
         if spec.deep:
             raise VfxStereoError(f"{path} is a deep image, not a multilayer layer stack")
-        layers = exr._header_json(spec, "vfxstereo/layers", path)
-        if not isinstance(layers, dict) or not layers:
-            raise VfxStereoError(f"{path}: the vfxstereo/layers header is missing or empty")
+        layers = exr._layers_header(spec, path)
         camera, metadata, white = exr._stack_extras(spec, path)
         plate = spec.get_string_attribute("vfxstereo/plate", "") or None
         names = set(spec.channelnames)
