@@ -49,7 +49,7 @@ def image_from_array(name: str, pixels: np.ndarray):
     return image
 
 
-def render_to_array(scene, path: Path, *, engine_render: bool = False) -> np.ndarray:
+def render_to_array(scene, path: Path) -> np.ndarray:
     """Render ``scene`` to a float EXR at ``path`` and read it back: (H, W, 4) RGBA, top row first."""
     import bpy
 
