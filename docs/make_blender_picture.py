@@ -10,6 +10,7 @@ pumpkin. Made with the extension zip, installed into a temporary user folder::
 """
 
 import os
+import shutil
 import sys
 import tempfile
 from pathlib import Path
@@ -104,4 +105,7 @@ def main(zip_path: Path) -> None:
 
 
 if __name__ == "__main__":
-    main(Path(sys.argv[1]) if len(sys.argv) > 1 else REPO / "dist" / "vfxstereo-0.1.0-linux_x64.zip")
+    try:
+        main(Path(sys.argv[1]) if len(sys.argv) > 1 else REPO / "dist" / "vfxstereo-0.1.0-linux_x64.zip")
+    finally:
+        shutil.rmtree(USER, ignore_errors=True)
