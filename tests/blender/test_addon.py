@@ -89,6 +89,8 @@ def installed(extension_zip):
     assert ADDON in bpy.context.preferences.addons
     yield Path(bpy.utils.user_resource("EXTENSIONS")) / ".local" / "lib" / "python3.11" / "site-packages"
     bpy.ops.preferences.addon_disable(module=ADDON)
+    repo = [i for i, r in enumerate(bpy.context.preferences.extensions.repos) if r.module == "user_default"][0]
+    bpy.ops.extensions.package_uninstall(repo_index=repo, pkg_id="vfxstereo")  # its 400 MB of wheels too
 
 
 @pytest.fixture
