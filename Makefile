@@ -6,7 +6,12 @@ STAMP := $(VENV)/.installed
 STAMP_BL := $(VENV_BL)/.installed
 export PIP_DISABLE_PIP_VERSION_CHECK := 1
 
-.PHONY: setup demo test test-core test-blender bench lint clean
+VERSION := $(shell sed -n 's/^version = "\(.*\)"/\1/p' pyproject.toml | head -n 1)
+EXT_ZIP := dist/vfxstereo-$(VERSION)-linux_x64.zip
+EXT_SOURCES := $(shell find blender_addon nodes vfxstereo \( -name '*.py' -o -name '*.toml' \) -not -path '*/__pycache__/*') \
+	pyproject.toml scripts/build_blender_extension.py
+
+.PHONY: setup demo test test-core test-blender bench lint clean blender-extension
 
 setup: $(STAMP) $(STAMP_BL)
 
@@ -35,15 +40,21 @@ test: test-core test-blender
 test-core: $(STAMP)
 	$(VENV)/bin/python -m pytest -q -p no:cacheprovider tests
 
-# ... and again on Blender's numpy 1.26 stack, with the Blender tests.
-test-blender: $(STAMP_BL)
-	$(VENV_BL)/bin/python -m pytest -q -p no:cacheprovider tests
+# ... and again on Blender's numpy 1.26 stack, with the Blender tests (they install the extension zip).
+test-blender: $(STAMP_BL) $(EXT_ZIP)
+	VFXSTEREO_EXTENSION_ZIP=$(abspath $(EXT_ZIP)) $(VENV_BL)/bin/python -m pytest -q -p no:cacheprovider tests
+
+# The installable Blender extension: blender_addon/ + nodes/ + the wheels its manifest lists (README, Blender).
+blender-extension: $(EXT_ZIP)
+
+$(EXT_ZIP): $(STAMP_BL) $(EXT_SOURCES)
+	$(VENV_BL)/bin/python scripts/build_blender_extension.py --output $@
 
 bench: $(STAMP)
 	$(VENV)/bin/python benchmarks/run_all.py
 
 lint: $(STAMP)
-	$(VENV)/bin/ruff check vfxstereo tests benchmarks samples
+	$(VENV)/bin/ruff check vfxstereo tests benchmarks samples blender_addon nodes scripts docs
 
 clean:
-	rm -rf $(VENV) $(VENV_BL) out
+	rm -rf $(VENV) $(VENV_BL) out dist

@@ -7,6 +7,7 @@ import re
 import numpy as np
 import pytest
 
+from tests.blender.conftest import render_to_array
 from vfxstereo.io import exr
 from vfxstereo.stack import LayerStack
 
@@ -26,15 +27,9 @@ def stack_file(tmp_path, rng):
 
 
 @pytest.fixture
-def scene():
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    sc = bpy.context.scene
-    tree = bpy.data.node_groups.new("vfxstereo_test", "CompositorNodeTree")
-    tree.interface.new_socket(name="Image", in_out="OUTPUT", socket_type="NodeSocketColor")
-    sc.compositing_node_group = tree
-    sc.render.use_compositing = True
-    yield sc
-    bpy.ops.wm.read_factory_settings(use_empty=True)
+def scene(comp_scene):
+    """An empty scene whose compositing tree has one output (tests/blender/conftest.py)."""
+    return comp_scene
 
 
 def layer_menu(node) -> list[str]:
@@ -71,15 +66,7 @@ def render(scene, path, tmp_path, *, layer=None, output=None) -> np.ndarray:
     out = tree.nodes.new("NodeGroupOutput")
     tree.links.new(node.outputs[output or ("Combined" if layer is not None else "Image")], out.inputs["Image"])
     scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = W, H, 100
-    settings = scene.render.image_settings
-    settings.media_type = "IMAGE"
-    settings.file_format = "OPEN_EXR"
-    settings.color_depth = "32"
-    settings.color_mode = "RGBA"
-    scene.render.filepath = str(tmp_path / "render.exr")
-    bpy.ops.render.render(write_still=True)
-    pixels, names, _ = exr.read_image(tmp_path / "render.exr")  # a file: top-down, like ours
-    return pixels[..., [names.index(c) for c in "RGBA"]]
+    return render_to_array(scene, tmp_path / "render.exr")  # a file: top-down, like ours
 
 
 def test_blender_renders_a_layer_exactly(stack_file, scene, tmp_path):
