@@ -2,7 +2,7 @@
 
 Plates: :func:`vfxstereo.samples.layered_scene` (a random-dot backdrop and three soft-edged random-dot layers,
 K = 5 views half a step apart, so odd disparities shift by half pixels), solved on the planes
-``d = 0 .. D-1`` with the configuration ``vfxstereo.solve`` uses when given none (``SolveConfig()``; or
+``d = 0 .. D-1`` with the configuration ``vfxstereo.solve`` uses when given none (``SolveConfig.preset(DEFAULT_PRESET)``; or
 ``--preset``). Cases: 960x540, 1920x1080 and 4096x2160 with 32, 64 and 128 planes (``--quick``: 240x136
 and 480x270 with 8 and 16 planes).
 
@@ -59,6 +59,8 @@ import time
 
 import common  # benchmarks/ is on sys.path when run as a script
 import numpy as np
+
+from vfxstereo.config import DEFAULT_PRESET
 
 SIZES = ((960, 540), (1920, 1080), (4096, 2160))
 PLANES = (32, 64, 128)
@@ -153,7 +155,7 @@ def run_case(width: int, height: int, planes: int, *, preset: str | None = None)
     from vfxstereo.config import SolveConfig
     from vfxstereo.errors import VfxStereoError
 
-    config = SolveConfig.preset(preset) if preset else SolveConfig()
+    config = SolveConfig.preset(preset or DEFAULT_PRESET)
     views = VIEWS  # layered_scene makes five
     estimate = solver.memory_needed((height, width), planes, views) if hasattr(solver, "memory_needed") else None
     result = {"width": width, "height": height, "planes": planes, "views": views,
@@ -343,7 +345,7 @@ def run(*, quick: bool = False, sizes=None, planes=None, preset: str | None = No
         for w, h, d in bar:
             bar.set_postfix_str(f"{w}x{h} D={d}")
             results.append(_spawn(w, h, d, preset=preset, timeout=timeout))
-    config = f"preset `{preset}`" if preset else "the default configuration (`SolveConfig()`)"
+    config = f"preset `{preset}`" if preset else f"the default preset (`{DEFAULT_PRESET}`)"
     head = (f"Plates: `samples.layered_scene`, K = {VIEWS}; {config} (each case's settings are in the JSON "
             f"beside this table). Memory bandwidth {b / 1e9:.1f} GB/s (np.copyto, this run).")
     report = common.section("Speed and memory of solve (issue 8)", head) + tables(results, b)
@@ -369,7 +371,7 @@ def main(argv=None) -> int:
     parser.add_argument("--sizes", type=lambda t: [_size(s) for s in t.split(",")],
                         help="plate sizes, e.g. 960x540,1920x1080")
     parser.add_argument("--planes", type=lambda t: [int(p) for p in t.split(",")], help="plane counts, e.g. 32,64")
-    parser.add_argument("--preset", help="a SolveConfig preset (default: SolveConfig(), what solve uses)")
+    parser.add_argument("--preset", help="a SolveConfig preset (default: the default preset, what solve uses)")
     parser.add_argument("--timeout", type=float, help="seconds a case may take before it is reported as failed")
     parser.add_argument("--case", nargs=2, metavar=("WxH", "PLANES"), help=argparse.SUPPRESS)
     args = parser.parse_args(argv)

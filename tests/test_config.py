@@ -33,9 +33,19 @@ def _differences(a: SolveConfig, b: SolveConfig) -> dict:
 
 
 def test_every_named_preset_exists():
-    assert set(PRESETS) == {"paper", "literal", "wta", "fig6a", "fig6b", "fig6c", "fig6d", "fig6e", "zkey"}
+    assert set(PRESETS) == {"paper", "literal", "wta", "fig6a", "fig6b", "fig6c", "fig6d", "fig6e", "zkey",
+                            "robust"}
     for name in PRESETS:
         assert isinstance(SolveConfig.preset(name), SolveConfig)
+
+
+def test_the_default_preset_is_the_robust_one_and_zkey_its_alias():
+    from vfxstereo.config import DEFAULT_PRESET
+
+    assert DEFAULT_PRESET == "robust"
+    robust = SolveConfig.preset("robust")
+    assert robust == SolveConfig.preset("zkey")
+    assert _differences(SolveConfig(), robust) == {"depth": "robust", "refine_iterations": 0, "soft_edges": True}
 
 
 def test_defaults_are_the_papers_numbers_from_the_stage_modules():
@@ -120,11 +130,4 @@ def test_to_dict_is_plain_json_and_round_trips():
     for name in PRESETS:
         c = SolveConfig.preset(name)
         d = json.loads(json.dumps(c.to_dict()))
-        d["lambdas"] = tuple(d["lambdas"])
-        assert SolveConfig(**d) == c
-
-
-def test_zkey_preset_is_paper_plus_edge_matting():
-    paper, zkey = SolveConfig.preset("paper"), SolveConfig.preset("zkey")
-    assert zkey.edge_matting and not paper.edge_matting
-    assert zkey.replace(edge_matting=False) == paper
+        assert SolveConfig.from_dict(d) == c

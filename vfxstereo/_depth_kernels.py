@@ -86,33 +86,44 @@ def _cell_cost(cref, vref, cview, vview, y, x, u, v, H, W, rho_census, rho_ad):
 
 
 @njit(cache=True, parallel=True, nogil=True)
-def accumulate_shift(cref, vref, cview, vview, sx, sy, zbuf, planes, tol, rho_census, rho_ad, total, count):
+def accumulate_shift(cref, vref, cview, vview, sx, sy, zbuf, planes, tol, rho_census, rho_ad, centre, total,
+                     count):
     """Rectified rigs: add view k's cost at every cell to ``total`` and 1 to ``count`` where the view sees it.
 
     Cell (y, x, i) samples the view at ``(x - sx[i], y - sy[i])``. With a z-buffer (``zbuf`` of the view's
     size, the largest disparity that lands on each view pixel, -inf where none), a cell is seen only where
-    ``zbuf`` at its (nearest) view pixel is at most ``planes[i] + tol``.
+    ``zbuf`` at its (nearest) view pixel is at most ``planes[i] + tol``. With ``centre``, the view's mean cost
+    over the cells of the pixel it sees is subtracted first.
     """
     H, W = cref.shape
     D = planes.shape[0]
     for y in prange(H):
+        buf = np.empty(D, np.float32)
+        seen = np.empty(D, np.bool_)
         for x in range(W):
+            s = 0.0
+            n = 0
             for i in range(D):
                 u = x - sx[i]
                 v = y - sy[i]
                 c = _cell_cost(cref, vref, cview, vview, y, x, u, v, H, W, rho_census, rho_ad)
-                if c < 0.0:
-                    continue
-                if zbuf[min(int(v + 0.5), H - 1), min(int(u + 0.5), W - 1)] > planes[i] + tol:
-                    continue
-                total[y, x, i] += c
-                count[y, x, i] += 1
+                seen[i] = c >= 0.0 and zbuf[min(int(v + 0.5), H - 1), min(int(u + 0.5), W - 1)] <= planes[i] + tol
+                if seen[i]:
+                    buf[i] = c
+                    s += c
+                    n += 1
+            m = s / n if centre and n > 0 else 0.0
+            for i in range(D):
+                if seen[i]:
+                    total[y, x, i] += buf[i] - m
+                    count[y, x, i] += 1
 
 
 @njit(cache=True, parallel=True, nogil=True)
 def accumulate_map(cref, vref, cview, vview, umap, vmap, zbuf, plane, tol, rho_census, rho_ad, total, count, i):
     """General cameras: as :func:`accumulate_shift` for one plane ``i`` whose cells sample the view at
-    ``(umap, vmap)`` (NaN: behind the camera)."""
+    ``(umap, vmap)`` (NaN: behind the camera).
+    """
     H, W = cref.shape
     for y in prange(H):
         for x in range(W):
@@ -130,7 +141,8 @@ def accumulate_map(cref, vref, cview, vview, umap, vmap, zbuf, plane, tol, rho_c
 @njit(cache=True, nogil=True)
 def zbuffer(u, v, disparity, out):
     """Splat each reference pixel's disparity onto the (up to) four view pixels around ``(u, v)``, keeping the
-    largest (nearest) per view pixel. ``out`` starts at -inf."""
+    largest (nearest) per view pixel. ``out`` starts at -inf.
+    """
     H, W = u.shape
     Ho, Wo = out.shape
     for y in range(H):

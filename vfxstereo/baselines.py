@@ -24,7 +24,8 @@ SGBM_SETTINGS = {"blockSize": 5, "P1": 8 * 3 * 25, "P2": 32 * 3 * 25, "uniquenes
 
 def fill_row_farther(disparity: np.ndarray, valid: np.ndarray) -> np.ndarray:
     """Invalid pixels take the smaller (farther) of the nearest valid values to their left and right on the row;
-    NaN where a row has no valid pixel."""
+    NaN where a row has no valid pixel.
+    """
     h, w = disparity.shape
     cols = np.arange(w)[None, :]
     left = np.maximum.accumulate(np.where(valid, cols, -1), axis=1)

@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from vfxstereo import shot, tasks
+from vfxstereo.config import DEFAULT_PRESET
 from vfxstereo.errors import VfxStereoError
 from vfxstereo.tasks import check_input, check_output
 
@@ -375,9 +376,11 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--reference", type=int, default=None, help="index of the reference view (default middle)")
     s.add_argument("--disparities", help="MIN:MAX[:STEP] in pixels per unit of position, inclusive (default "
                                          "0 to 5%% of the image width, step 1)")
-    s.add_argument("--preset", default="paper",
-                   help="paper (default), zkey (paper + edge matting: best soft edges), literal (the paper "
-                        "as written), wta, fig6a..fig6e (the paper's configurations)")
+    s.add_argument("--preset", default=DEFAULT_PRESET,
+                   help="robust (default: robust multi-view depth, hidden layers, soft edges; the best measured "
+                        "for z-keying real plates; zkey is the same), paper (Szeliski & Golland's stages with "
+                        "our additions), literal (the paper as written), wta, fig6a..fig6e (the paper's "
+                        "configurations)")
     s.add_argument("--dataset", help="folder with a dataset.json (views, positions, reference)")
     s.add_argument("--disparity-out", help="EXR with the sub-pixel disparity of the reference camera (channels "
                                            "Y and Z, the same values)")

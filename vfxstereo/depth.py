@@ -65,12 +65,32 @@ class DepthConfig:
     visibility_tolerance: float = 4.0
     """A cell is hidden in a view when a disparity larger by more than this many plane steps lands on its
     view pixel."""
+    fill_occluded: bool = True
+    """After the visibility pass, pixels whose winning cell no other view sees (occluded in all of them) are
+    unreliable and filled (step 6's fill)."""
     consistency: bool = False
     """Step 6: check against the disparity of another view and fill what disagrees."""
     consistency_view: int | None = None
     """Steps from the reference to the view of the check (default: the farthest view on the side with more)."""
     median: int = 3
     """Side of the final median filter (0 or 1: none)."""
+    subset_penalty: float | None = None
+    """Occlusion-robust combination (Kang, Szeliski & Chai 2001): a cell's cost is the least of the mean over all
+    views that see it and the means over the views on either side of the reference plus this penalty (cost
+    units), so one side's views take over where the other side's are occluded, and only then. None: the mean
+    over all views."""
+    centre: bool = True
+    """Centre each view's costs per pixel before the mean over views (:func:`vfxstereo.matching.accumulate`)."""
+    far_bias: float = 0.25
+    """Where the cost curve is flat (a surface without texture), add up to this much cost, growing linearly
+    from the farthest plane to the nearest, so that an undecided surface goes back rather than taking the
+    depth of a nearer textured object next to it (see :func:`flat_bias`)."""
+    flat_gap: float = 0.04
+    """Cost gap (mean over the planes minus the minimum) below which a pixel counts as flat: the bias weight is
+    ``exp(-gap / flat_gap)``."""
+    flat_texture: float | None = None
+    """Local grey-level deviation (8-bit units, 9 x 9 window) below which a pixel counts as plain: the bias weight
+    is also multiplied by ``exp(-deviation / flat_texture)``; None: the cost gap alone decides."""
 
     def __post_init__(self):
         if self.box < 1 or self.paths not in (4, 8) or self.median < 0 or self.visibility_passes < 0:
@@ -111,6 +131,75 @@ def box_filter(cost: np.ndarray, size: int) -> np.ndarray:
     return out
 
 
+def view_sides(camera, reference: int) -> list[int]:
+    """-1 or +1 per view: which side of the reference it lies on along the rig's main direction (0 for the
+    reference and for views level with it).
+    """
+    p = camera.positions - camera.positions[reference]
+    axis = np.array([1.0, 0.0]) if np.ptp(p[:, 0]) >= np.ptp(p[:, 1]) else np.array([0.0, 1.0])
+    return [int(np.sign(round(float(q @ axis), 9))) for q in p]
+
+
+def combine_views(total: dict, count: dict, unseen: float, penalty: float | None) -> np.ndarray:
+    """The cost volume from per-side sums and counts of view costs (see ``DepthConfig.subset_penalty``).
+
+    A cell no view sees costs ``unseen`` (the most one view can add; 0, the mean, for centred costs).
+    """
+    keys = list(total)
+    t_all = sum(total[k] for k in keys) if len(keys) > 1 else total[keys[0]]
+    c_all = sum(count[k].astype(np.float32) for k in keys) if len(keys) > 1 else count[keys[0]].astype(np.float32)
+    cost = np.where(c_all > 0, t_all / np.maximum(c_all, 1.0), np.float32(unseen)).astype(np.float32)
+    if penalty is None or len(keys) < 2:
+        return cost
+    for k in keys:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            sub = total[k] / count[k] + np.float32(penalty)
+        np.minimum(cost, np.where(count[k] > 0, sub, np.inf), out=cost)
+    return cost
+
+
+FLAT_WINDOW = 31
+"""Side of the window the cost gap is averaged over in :func:`flat_bias`: only surfaces flat over a region get the
+bias, not a weakly textured strip or the rows along the frame edge."""
+
+
+def local_deviation(gray: np.ndarray, size: int = 9) -> np.ndarray:
+    """Standard deviation of ``gray`` over a ``size`` x ``size`` window (edges replicated)."""
+    import cv2
+
+    g = np.asarray(gray, np.float32)
+    m = cv2.blur(g, (size, size), borderType=cv2.BORDER_REPLICATE)
+    m2 = cv2.blur(g * g, (size, size), borderType=cv2.BORDER_REPLICATE)
+    return np.sqrt(np.maximum(m2 - m * m, 0.0))
+
+
+def flat_bias(cost: np.ndarray, disparities: np.ndarray, strength: float, gap_scale: float,
+              texture: np.ndarray | None = None, texture_scale: float | None = None) -> None:
+    """Add, in place, ``strength * exp(-gap / gap_scale) * (d - d_min) / (d_max - d_min)`` to ``cost``
+    (times ``exp(-texture / texture_scale)`` when both are given).
+
+    ``gap`` is each pixel's mean cost over the planes minus its least cost: near zero where nothing in the
+    views tells the planes apart (a plain wall, sky, a blown-out highlight), large where the texture decides.
+    Stereo cannot tell the depth of such a surface; semi-global matching then carries in the depth of whatever
+    textured surface its paths cross, most often a nearer object in front of it, and the wall ends up in
+    front of a z-keyed element. The bias sends the undecided surface back instead: a figure is usually the
+    textured, enclosed region and the ground the plain one around it.
+    """
+    if strength <= 0 or cost.shape[2] < 2:
+        return
+    import cv2
+
+    gap = cost.mean(axis=2) - cost.min(axis=2)
+    gap = cv2.blur(gap, (FLAT_WINDOW, FLAT_WINDOW), borderType=cv2.BORDER_REFLECT)  # flat over a region
+    weight = strength * np.exp(-gap / gap_scale)
+    if texture is not None and texture_scale:
+        weight = weight * np.exp(-texture / texture_scale)
+    weight = weight.astype(np.float32)
+    d = np.asarray(disparities, np.float64)
+    ramp = ((d - d[0]) / (d[-1] - d[0])).astype(np.float32)
+    cost += weight[..., None] * ramp[None, None, :]
+
+
 def winner_subpixel(S: np.ndarray, disparities: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Plane index of least ``S`` per pixel and the parabola vertex through it and its neighbours.
 
@@ -148,7 +237,8 @@ def zbuffer(warper, disparity: np.ndarray, k: int) -> np.ndarray:
 
 def fill_unreliable(disparity: np.ndarray, reliable: np.ndarray, guide: np.ndarray) -> np.ndarray:
     """Unreliable pixels take a reliable neighbour's disparity: of the nearest reliable pixels in 8 directions,
-    those not nearer than their median, and of them the one most alike in ``guide``."""
+    those not nearer than their median, and of them the one most alike in ``guide``.
+    """
     from vfxstereo import _depth_kernels
 
     out = np.empty_like(disparity, dtype=np.float32)
@@ -159,7 +249,8 @@ def fill_unreliable(disparity: np.ndarray, reliable: np.ndarray, guide: np.ndarr
 
 def _consistency(S: np.ndarray, win: np.ndarray, disparities: np.ndarray, offset: float) -> np.ndarray:
     """True where the reference's winner agrees (within one pixel) with the winner of a view at ``offset``
-    (view steps, rectified along x) found by a diagonal search of ``S`` (Hirschmueller 2008, Section 3.4)."""
+    (view steps, rectified along x) found by a diagonal search of ``S`` (Hirschmueller 2008, Section 3.4).
+    """
     h, w, D = S.shape
     shift = np.rint(np.asarray(disparities) * offset).astype(np.int64)  # view pixel u = x - shift
     best = np.full((h, w), np.inf, np.float32)
@@ -217,24 +308,31 @@ def robust_depth(views: np.ndarray, warper, reference: int, *, config: DepthConf
     prep = matching.prepare(views, config.matching)
     timed("match", t0)
     others = [k for k in range(K) if k != reference]
-    total = np.empty((h, w, D), np.float32)
-    count = np.empty((h, w, D), np.uint8)
+    side = view_sides(warper.camera, reference)
+    sides = sorted({side[k] for k in others}) if config.subset_penalty is not None else [0]
+    total = {sd: np.empty((h, w, D), np.float32) for sd in sides}
+    count = {sd: np.empty((h, w, D), np.uint8) for sd in sides}
     S = np.empty((h, w, D), np.float32)
     disparity = None
     passes = config.visibility_passes + 1
     for p in range(passes):
         t0 = time.perf_counter()
-        total[...] = 0.0
-        count[...] = 0
+        for sd in sides:
+            total[sd][...] = 0.0
+            count[sd][...] = 0
         for n, k in enumerate(others):
             zbuf = zbuffer(warper, disparity, k) if disparity is not None else None
-            matching.accumulate(prep, warper, k, reference, total, count, zbuf=zbuf,
-                                tolerance=config.visibility_tolerance * step, params=config.matching)
+            sd = side[k] if len(sides) > 1 else sides[0]
+            matching.accumulate(prep, warper, k, reference, total[sd], count[sd], zbuf=zbuf,
+                                tolerance=config.visibility_tolerance * step, centre=config.centre,
+                                params=config.matching)
             report(progress, "match", p * len(others) + n + 1, passes * len(others))
-        # Mean over the views that see each cell; a cell no view sees costs the most one view can add.
-        np.divide(total, np.maximum(count, 1), out=total)
-        total[count == 0] = config.matching.max_cost
-        cost = box_filter(total, config.box)
+        cost = combine_views(total, count, 0.0 if config.centre else config.matching.max_cost,
+                             config.subset_penalty)
+        cost = box_filter(cost, config.box)
+        flat_bias(cost, d, config.far_bias, config.flat_gap,
+                  texture=local_deviation(prep.grey[reference]) if config.flat_texture else None,
+                  texture_scale=config.flat_texture)
         timed("match", t0)
         t0 = time.perf_counter()
         from vfxstereo.sgm import sgm
@@ -245,11 +343,16 @@ def robust_depth(views: np.ndarray, warper, reference: int, *, config: DepthConf
         timed("sgm", t0)
     t0 = time.perf_counter()
     reliable = np.ones((h, w), bool)
+    if config.fill_occluded and config.visibility_passes > 0:
+        # no other view sees the winning cell: half-occluded in every view, so matching said nothing there
+        seen = sum(np.take_along_axis(c, win[..., None], axis=2)[..., 0].astype(np.int32) for c in count.values())
+        reliable &= seen > 0
     if config.consistency:
         off = _consistency_offset(warper, reference, config.consistency_view)
         if off is not None:
-            reliable = _consistency(S, win, d, off)
-            disparity = fill_unreliable(disparity, reliable, prep.grey[reference])
+            reliable &= _consistency(S, win, d, off)
+    if not reliable.all():
+        disparity = fill_unreliable(disparity, reliable, prep.grey[reference])
     if config.median > 1:
         import cv2
 
@@ -257,13 +360,15 @@ def robust_depth(views: np.ndarray, warper, reference: int, *, config: DepthConf
     index = np.clip(np.rint(np.interp(disparity, d, np.arange(D))), 0, D - 1).astype(np.int32)
     timed("finish", t0)
     return DepthResult(disparity=disparity.astype(np.float32), index=index, reliable=reliable,
-                       aggregated=S if keep_volume else None, visible=count if keep_volume else None,
+                       aggregated=S if keep_volume else None,
+                       visible=sum(c.astype(np.uint8) for c in count.values()) if keep_volume else None,
                        timings=timings)
 
 
 def _consistency_offset(warper, reference: int, steps: int | None) -> float | None:
     """Baseline offset (view steps along x) of the view the consistency check uses, or None (not a rectified
-    horizontal rig)."""
+    horizontal rig).
+    """
     cam = warper.camera
     if cam.is_general or np.any(cam.positions[:, 1] != cam.positions[0, 1]):
         return None

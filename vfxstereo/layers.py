@@ -24,6 +24,32 @@ MIN_WEIGHT = 0.5
 """A hidden cell needs at least this much resampled weight (of its bilinear footprint) from uncovered pixels."""
 
 
+def view_gains(views: np.ndarray, warper, reference: int, disparity: np.ndarray) -> np.ndarray:
+    """(K, 3) colour gains that bring each view to the reference's exposure: the median ratio of the reference's
+    colour to the view's at the pixels the depth map matches (mid-tones only). The reference's gain is 1.
+
+    Cameras of an array differ in exposure and white balance; colours carried from one view into the
+    reference's layers (hidden cells, soft edges) are multiplied by its gain.
+    """
+    K, h, w = views.shape[:3]
+    gains = np.ones((K, 3), np.float32)
+    ys, xs = np.mgrid[0:h, 0:w]
+    ref = views[reference]
+    for k in range(K):
+        if k == reference:
+            continue
+        u, v = warper.points_to_view(k, xs.ravel(), ys.ravel(), np.asarray(disparity, np.float64).ravel())
+        ui, vi = np.rint(u), np.rint(v)
+        ok = np.isfinite(ui) & np.isfinite(vi) & (ui >= 0) & (ui < w) & (vi >= 0) & (vi < h)
+        sample = views[k][vi[ok].astype(np.int64), ui[ok].astype(np.int64)]
+        target = ref.reshape(-1, 3)[ok]
+        mid = np.all((sample > 0.05) & (sample < 0.9) & (target > 0.05) & (target < 0.9), axis=1)
+        if mid.sum() < 100:
+            continue
+        gains[k] = np.median(target[mid] / sample[mid], axis=0)
+    return gains
+
+
 def plane_index(disparity: np.ndarray, disparities: np.ndarray) -> np.ndarray:
     """Index of the plane nearest each disparity (int32, NaN -> -1)."""
     d = np.asarray(disparities, np.float64)
@@ -47,7 +73,7 @@ def front_volume(index: np.ndarray, plate: np.ndarray, n_planes: int) -> np.ndar
 
 
 def hidden_volume(views: np.ndarray, warper, reference: int, disparity: np.ndarray, index: np.ndarray,
-                  *, guide: np.ndarray | None = None) -> np.ndarray:
+                  *, guide: np.ndarray | None = None, gains: np.ndarray | None = None) -> np.ndarray:
     """(D, H, W, 4) premultiplied: opaque cells behind the front surface, coloured by the views that see them.
 
     Parameters
@@ -63,6 +89,8 @@ def hidden_volume(views: np.ndarray, warper, reference: int, disparity: np.ndarr
         The front surface's plane per pixel (:func:`plane_index` of ``disparity``).
     guide : ndarray of shape (K, H, W), optional
         Grey images of the views for the edge-aware fill (default: the views' luma).
+    gains : ndarray of shape (K, 3), optional
+        Colour gains of the views (:func:`view_gains`); the colours they give are multiplied by them.
     """
     from vfxstereo.depth import fill_unreliable, zbuffer
     from vfxstereo.matching import grey
@@ -86,7 +114,8 @@ def hidden_volume(views: np.ndarray, warper, reference: int, disparity: np.ndarr
             wt = warper.to_plane(m, k, int(i))
             if not (wt > MIN_WEIGHT).any():
                 continue
-            total[i] += warper.to_plane(views[k] * m[..., None], k, int(i))
+            g = 1.0 if gains is None else gains[k]
+            total[i] += warper.to_plane(views[k] * m[..., None], k, int(i)) * g
             weight[i] += wt
     n = np.maximum(weight, 1e-6)
     keep = (weight > MIN_WEIGHT) & (np.arange(D)[:, None, None] < index[None])

@@ -72,7 +72,8 @@ class MatchingParams:
     def tables(self) -> tuple[np.ndarray, np.ndarray]:
         """``rho_census[h]`` for Hamming distances 0..64 and ``w_ad * rho_ad`` of colour differences in steps
         of ``_depth_kernels.AD_TABLE_STEP`` up to where it reaches ``w_ad`` within float32 (the kernels'
-        look-up tables)."""
+        look-up tables).
+        """
         from vfxstereo._depth_kernels import AD_TABLE_STEP
 
         rho_c = (1.0 - np.exp(-np.arange(65) / self.lambda_census)).astype(np.float32)
@@ -144,7 +145,7 @@ def prepare(views: np.ndarray, params: MatchingParams = MatchingParams()) -> Pre
 
 
 def accumulate(prepared: Prepared, warper, k: int, ref: int, total: np.ndarray, count: np.ndarray, *,
-               zbuf: np.ndarray | None = None, tolerance: float = 0.0,
+               zbuf: np.ndarray | None = None, tolerance: float = 0.0, centre: bool = False,
                params: MatchingParams = MatchingParams()) -> None:
     """Add view ``k``'s AD-census cost against view ``ref`` to ``total`` and 1 to ``count`` where it sees a cell.
 
@@ -160,6 +161,12 @@ def accumulate(prepared: Prepared, warper, k: int, ref: int, total: np.ndarray, 
     zbuf : ndarray of shape (H, W), optional
         The largest disparity that lands on each of view k's pixels (:func:`vfxstereo.depth.zbuffer`): a cell
         whose disparity is more than ``tolerance`` below it is hidden in view k and gets no cost from it.
+    centre : bool
+        Subtract, per reference pixel, view k's mean cost over the planes it sees there. Views fall out of the
+        frame (or behind an occluder) for some planes of a pixel and not others; on a surface without
+        texture every plane costs about the same in each view but different views cost differently (gain,
+        vignetting, noise), so a plain mean over the views that remain favours the planes the costlier views
+        miss. Centred costs carry each view's preference between planes and nothing of its level.
     """
     from vfxstereo import _depth_kernels
 
@@ -172,12 +179,19 @@ def accumulate(prepared: Prepared, warper, k: int, ref: int, total: np.ndarray, 
     if shifts is not None:
         sx, sy = shifts
         _depth_kernels.accumulate_shift(*args, sx, sy, zbuf, warper.disparities.astype(np.float32),
-                                        np.float32(tolerance), *lam, total, count)
+                                        np.float32(tolerance), *lam, bool(centre), total, count)
         return
+    t_k = np.zeros_like(total) if centre else total
+    c_k = np.zeros_like(count) if centre else count
     for i in range(warper.D):
         u, v = warper.sample_map(k, i)
         _depth_kernels.accumulate_map(*args, u, v, zbuf, np.float32(warper.disparities[i]),
-                                      np.float32(tolerance), *lam, total, count, i)
+                                      np.float32(tolerance), *lam, t_k, c_k, i)
+    if centre:
+        n = c_k.sum(axis=2, dtype=np.float32)
+        mean = np.where(n > 0, t_k.sum(axis=2) / np.maximum(n, 1.0), 0.0).astype(np.float32)
+        total += np.where(c_k > 0, t_k - mean[..., None], 0.0)
+        count += c_k
 
 
 def cell_cost_reference(prepared: Prepared, k: int, ref: int, y: int, x: int, u: float, v: float,

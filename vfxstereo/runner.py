@@ -47,6 +47,12 @@ from pathlib import Path
 from vfxstereo.errors import VfxStereoError
 
 STAGE_SHARES = {
+    # the robust preset (the default)
+    "match": (0.0, 0.55),
+    "sgm": (0.55, 0.65),
+    "layers": (0.65, 0.75),
+    "soft-edges": (0.75, 1.0),
+    # the paper's stages
     "sweep": (0.0, 0.10),
     "aggregate": (0.0, 0.10),
     "select": (0.0, 0.10),
@@ -56,9 +62,9 @@ STAGE_SHARES = {
     "matting": (0.92, 0.98),
     "subpixel": (0.98, 1.0),
 }
-"""Share of a frame's time each solver stage spans, ``(start, end)`` in [0, 1] (the demo sample, default
-preset: refinement is 80-95 % of a solve). Stages before refinement repeat once per pass, so they share one
-span. A stage not listed keeps the fraction where it was."""
+"""Share of a frame's time each solver stage spans, ``(start, end)`` in [0, 1] (the demo sample; with the paper
+preset refinement is 80-95 % of a solve). Stages that repeat once per pass share one span. A stage not listed
+keeps the fraction where it was."""
 
 WORK_PREFIX = ".vfxstereo-solve-"
 """Name prefix of the hidden folder a run writes into before its outputs are moved into place."""

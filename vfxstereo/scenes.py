@@ -37,7 +37,8 @@ from vfxstereo.stack import over
 @dataclass
 class PlanarLayer:
     """Premultiplied RGBA on a plane: ``rgba`` on the scene canvas, disparity ``d0 + gx (x - cx) + gy (y - cy)``
-    in canvas pixels around the canvas centre."""
+    in canvas pixels around the canvas centre.
+    """
 
     name: str
     rgba: np.ndarray  # (Hc, Wc, 4) float32 premultiplied, on the canvas
@@ -344,7 +345,8 @@ def _canvas() -> tuple[int, int]:
 @_register
 def trolls_art(K: int = 5, data_dir=None) -> Scene:
     """Troll hair (GT04) in front, a wire pencil holder (GT25, a mesh with holes) in the middle, the Art photo on
-    a slanted back wall."""
+    a slanted back wall.
+    """
     rng = np.random.default_rng(1)
     cv = _canvas()
     bg = PlanarLayer("Art wall", opaque(photo("middlebury2005_2006_halfsize/Art", cv, data_dir=data_dir)),
@@ -371,7 +373,8 @@ def wicker_wall(K: int = 5, data_dir=None) -> Scene:
 @_register
 def tree_cloth(K: int = 5, data_dir=None) -> Scene:
     """A bonsai's thin branches and leaves (GT26) over a pumpkin (GT19) over a cloth (Cloth3), four depths with a
-    fence between pumpkin and cloth."""
+    fence between pumpkin and cloth.
+    """
     rng = np.random.default_rng(3)
     cv = _canvas()
     cloth = PlanarLayer("cloth", opaque(photo("middlebury2005_2006_halfsize/Cloth3", cv, data_dir=data_dir)), 1.8)
@@ -400,7 +403,8 @@ def doll_plant(K: int = 5, data_dir=None) -> Scene:
 @_register
 def fur_grey_wall(K: int = 5, data_dir=None) -> Scene:
     """A fluffy rabbit (GT15) and a teddy's fur (GT10) in front of a plain grey wall: soft edges against almost no
-    texture, the hardest case for the views to separate foreground from background."""
+    texture, the hardest case for the views to separate foreground from background.
+    """
     rng = np.random.default_rng(5)
     cv = _canvas()
     wall = PlanarLayer("grey wall", opaque(painted_wall(cv, (0.42, 0.42, 0.44), rng, grain=0.006)), 0.8)
@@ -451,7 +455,8 @@ def artichoke_books(K: int = 5, data_dir=None) -> Scene:
 @_register
 def flowers_fence(K: int = 5, data_dir=None) -> Scene:
     """(held out) Red flowers and leaves (GT21) behind a fence, in front of a plain wall: thin bars in front of a
-    soft foreground."""
+    soft foreground.
+    """
     rng = np.random.default_rng(9)
     cv = _canvas()
     wall = PlanarLayer("wall", opaque(painted_wall(cv, (0.7, 0.66, 0.6), rng)), 1.0)

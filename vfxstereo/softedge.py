@@ -52,12 +52,17 @@ class SoftEdgeParams:
     """Smallest depth jump that makes a band, px per view step."""
     dilate: int = 3
     """The foreground is grown by this many px before the background is taken from the views."""
-    w_views: float = 1.0
+    w_views: float = 0.3
     """Weight of the multi-view estimate per unit of background variation (colour^2)."""
-    w_colour: float = 0.05
-    """Weight of the single-view colour estimate per unit of foreground/background separation (colour^2)."""
-    w_prior: float = 0.002
+    w_colour: float = 0.5
+    """Weight of the single-view colour estimate per unit of foreground/background separation (colour^2),
+    divided by ``1 + residual / residual_scale``."""
+    residual_scale: float = 1e-3
+    """Colour residual (colour^2) at which the single-view estimate loses half its weight."""
+    w_prior: float = 0.01
     """Weight of the depth map's 0/1 label."""
+    snap: float = 0.2
+    """Alphas within this of 0 or 1 become 0 or 1 (most band pixels are clear or solid)."""
     search: int = 24
     """Farthest a foreground colour sample is looked for, px."""
 
@@ -92,9 +97,10 @@ def fill_colour(rgb: np.ndarray, known: np.ndarray, *, sigmas=(2.0, 6.0, 18.0, 5
 
 
 def background_image(views: np.ndarray, warper, plane: int, disparity: np.ndarray, *, dilate: int,
-                     tolerance: float) -> tuple[np.ndarray, np.ndarray]:
+                     tolerance: float, gains: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Colour of plane ``plane`` at every reference position, from the views that see it clear of the
-    foreground grown by ``dilate`` px; ``(rgb (H, W, 3), seen (H, W) bool)``, unseen points filled."""
+    foreground grown by ``dilate`` px; ``(rgb (H, W, 3), seen (H, W) bool)``, unseen points filled.
+    """
     from vfxstereo.depth import zbuffer
 
     grown = ndimage.maximum_filter(disparity, size=2 * dilate + 1) if dilate > 0 else disparity
@@ -106,7 +112,8 @@ def background_image(views: np.ndarray, warper, plane: int, disparity: np.ndarra
         zb = zbuffer(warper, grown, k)
         clear = (zb <= d_b + tolerance).astype(np.float32)
         wt = warper.to_plane(clear, k, plane)
-        total += warper.to_plane(views[k] * clear[..., None], k, plane)
+        g = 1.0 if gains is None else gains[k]
+        total += warper.to_plane(views[k] * clear[..., None], k, plane) * g
         weight += wt
     seen = weight > 0.5
     rgb = np.where(seen[..., None], total / np.maximum(weight, 1e-6)[..., None], 0.0).astype(np.float32)
@@ -122,11 +129,12 @@ class SoftEdges:
     front: np.ndarray  # (H, W) int32 front plane, -1 outside
     back: np.ndarray  # (H, W) int32 back plane, -1 outside
     confidence: np.ndarray  # (H, W) float32 background variation across the views
+    estimates: dict | None = None  # per band pixel: "views", "colour", "separation", "residual" (N,)
 
 
 def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, disparity: np.ndarray,
                  index: np.ndarray, *, params: SoftEdgeParams | None = None, tolerance: float | None = None,
-                 progress: Progress | None = None) -> tuple[np.ndarray, SoftEdges]:
+                 gains: np.ndarray | None = None, progress: Progress | None = None) -> tuple[np.ndarray, SoftEdges]:
     """Soft alpha along the depth edges of ``volume`` (see the module docstring).
 
     Parameters
@@ -140,6 +148,8 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
         The front surface (sub-pixel disparity and plane index).
     tolerance : float, optional
         Visibility tolerance in disparity units (default: two plane steps).
+    gains : ndarray of shape (K, 3), optional
+        Colour gains of the views (:func:`vfxstereo.layers.view_gains`).
 
     Returns
     -------
@@ -173,26 +183,32 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     b_plane = np.where(far_side, index, np.where(nearest_hidden >= 0, nearest_hidden, fmin)).astype(np.int32)
     ys, xs = np.nonzero(band)
     f, b = f_plane[ys, xs], b_plane[ys, xs]
+    # sub-pixel depths of the two surfaces: strands are a pixel wide, so registration matters
+    near = ndimage.maximum_filter(disparity, size=size)
+    far = np.where(nearest_hidden >= 0, d[np.maximum(nearest_hidden, 0)], ndimage.minimum_filter(disparity, size=size))
+    d_front = np.where(far_side, near, disparity)[ys, xs].astype(np.float64)
+    d_back = np.where(far_side, disparity, far)[ys, xs].astype(np.float64)
     # the backgrounds, one image per back plane in use
     backgrounds = {}
     for n, bp in enumerate(np.unique(b)):
         backgrounds[int(bp)] = background_image(views, warper, int(bp), disparity, dilate=p.dilate,
-                                                tolerance=tol)[0]
-        report(progress, "soft edges", n + 1, len(np.unique(b)) + 1)
+                                                tolerance=tol, gains=gains)[0]
+        report(progress, "soft-edges", n + 1, len(np.unique(b)) + 1)
     K = views.shape[0]
     N = len(ys)
     I = np.zeros((K, N, 3), np.float32)
     B = np.zeros((K, N, 3), np.float32)
     ok = np.zeros((K, N), bool)
     xf, yf = xs.astype(np.float64), ys.astype(np.float64)
-    d_f = d[f].astype(np.float32)
     for k in range(K):
-        u, v = warper.points_to_view(k, xf, yf, f)
+        u, v = warper.points_to_view(k, xf, yf, d_front)
         I[k], inside = _sample(views[k], u, v)
+        if gains is not None:
+            I[k] *= gains[k]
         zb = zbuffer(warper, disparity, k)
         zk = ndimage.map_coordinates(zb, [np.nan_to_num(v), np.nan_to_num(u)], order=0, mode="nearest")
-        ok[k] = inside & (zk <= d_f + tol)  # nothing nearer than the front plane hides the point in view k
-        X, Y = warper.transfer(k, xf, yf, f, b)
+        ok[k] = inside & (zk <= d_front + tol)  # nothing nearer than the front surface hides the point in view k
+        X, Y = warper.transfer(k, xf, yf, d_front, d_back)
         for bp in np.unique(b):
             sel = b == bp
             B[k, sel], ins = _sample(backgrounds[int(bp)], X[sel], Y[sel])
@@ -220,9 +236,9 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     have_c = a_colour >= 0
     prior = (index[ys, xs] >= f).astype(np.float32)
     wv_ = p.w_views * var_b
-    wc_ = np.where(have_c, p.w_colour * sep, 0.0)
+    wc_ = np.where(have_c, p.w_colour * sep / (1.0 + resid / p.residual_scale), 0.0)
     alpha = (wv_ * a_views + wc_ * np.where(have_c, a_colour, 0.0) + p.w_prior * prior) / (wv_ + wc_ + p.w_prior)
-    alpha = alpha.astype(np.float32)
+    alpha = np.where(alpha < p.snap, 0.0, np.where(alpha > 1.0 - p.snap, 1.0, alpha)).astype(np.float32)
     # write the band's cells
     B0 = B[reference]
     C = np.clip(plate[ys, xs] - (1.0 - alpha)[:, None] * B0, 0.0, None)
@@ -241,7 +257,9 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     info.front[ys, xs] = f
     info.back[ys, xs] = b
     info.confidence[ys, xs] = var_b
-    report(progress, "soft edges", 1, 1)
+    info.estimates = {"views": a_views, "colour": np.where(have_c, a_colour, np.nan), "separation": sep,
+                      "residual": resid, "prior": prior}
+    report(progress, "soft-edges", 1, 1)
     return out, info
 
 

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from vfxstereo.config import SolveConfig
+from vfxstereo.config import DEFAULT_PRESET, SolveConfig
 from vfxstereo.errors import VfxStereoError
 from vfxstereo.geometry import Camera
 from vfxstereo.progress import Progress, report
@@ -162,7 +162,7 @@ def solve(views, *, positions=None, reference: int | None = None, disparities, c
     disparities : array_like of shape (D,)
         Increasing disparities of the planes, px per view step.
     config : SolveConfig, optional
-        Settings; default the ``paper`` preset.
+        Settings; default the :data:`~vfxstereo.config.DEFAULT_PRESET` (``robust``) preset.
     progress : callable, optional
         ``progress(stage, done, total)`` for every stage and iteration; stages ``"passes"``, ``"sweep"``
         (per plane), ``"aggregate"``, ``"select"``, ``"visibility"``, ``"complete"``, ``"refine"`` (per
@@ -179,7 +179,7 @@ def solve(views, *, positions=None, reference: int | None = None, disparities, c
     """
     from vfxstereo import aggregate, refine, select, subpixel, sweep, visibility
 
-    config = config or SolveConfig()
+    config = config or SolveConfig.preset(DEFAULT_PRESET)
     views = _check_views(views)
     disparities = _check_disparities(disparities)
     n_views, h, w = views.shape[:3]
@@ -313,11 +313,17 @@ def _solve_robust(views, warper, camera, disparities, config, *, progress, white
     for name, seconds in res.timings.items():
         timings[f"depth.{name}"] = seconds
     index = layers.plane_index(res.disparity, disparities)
+    gains = timed("layers", layers.view_gains, views, warper, ref_view, res.disparity)
     front = timed("layers", layers.front_volume, index, plate, len(disparities))
-    hidden = timed("layers", layers.hidden_volume, views, warper, ref_view, res.disparity, index)
+    hidden = timed("layers", layers.hidden_volume, views, warper, ref_view, res.disparity, index, gains=gains)
     report(progress, "layers", 1, 1)
     initial = front + hidden  # disjoint: hidden cells lie strictly behind the front ones
     rgba = initial
+    if config.soft_edges:
+        from vfxstereo import softedge
+
+        rgba, _ = timed("soft-edges", softedge.soften_edges, rgba, views, warper, ref_view, res.disparity, index,
+                        params=config.soft_edge, gains=gains, progress=progress)
     if config.refine_iterations > 0 and any(config.lambdas):
         rgba = timed("refine", refine.refine, initial, disparities, views, warper,
                      config.refine_config(white=white), progress=progress)

@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from vfxstereo.config import DEFAULT_PRESET
 from vfxstereo.errors import VfxStereoError
 from vfxstereo.progress import Progress
 
@@ -124,7 +125,7 @@ class SolveTask:
         Folder for PNG previews (contact sheet, disparity, flattened stack).
     """
 
-    preset: str = "paper"
+    preset: str = DEFAULT_PRESET
     view_names: tuple[str, ...] | None = None
     positions: tuple[float, ...] | None = None
     reference: int | None = None

@@ -76,7 +76,8 @@ class Warper:
 
     def shifts(self, k: int) -> tuple[np.ndarray, np.ndarray] | None:
         """Rectified rigs: ``(sx, sy)``, each (D,) float64, so plane ``i``'s cell (x, y) lands at
-        ``(x - sx[i], y - sy[i])`` in view ``k``; ``None`` for general cameras (use :meth:`sample_map`)."""
+        ``(x - sx[i], y - sy[i])`` in view ``k``; ``None`` for general cameras (use :meth:`sample_map`).
+        """
         if self._general is not None:
             return None
         off = self.camera.view_offset(k)
@@ -84,7 +85,8 @@ class Warper:
 
     def sample_map(self, k: int, i: int) -> tuple[np.ndarray, np.ndarray]:
         """``(u, v)``, each (H, W) float32: the column and row of view ``k`` that plane ``i``'s cells land on
-        (Eq. A1; the positions :meth:`to_plane` samples bilinearly). NaN where the plane is behind the view."""
+        (Eq. A1; the positions :meth:`to_plane` samples bilinearly). NaN where the plane is behind the view.
+        """
         h, w = self.shape
         ys, xs = np.mgrid[0:h, 0:w].astype(np.float64)
         if self._general is None:
@@ -96,7 +98,8 @@ class Warper:
     def project(self, disparity: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
         """``(u, v)``, each (H, W) float32: where each reference pixel lands in view ``k`` at its own
         disparity ``disparity[y, x]`` (Eq. A1 with d per pixel). NaN where the disparity is NaN or the point
-        is behind the view."""
+        is behind the view.
+        """
         d = np.asarray(disparity, dtype=np.float64)
         h, w = self.shape
         if d.shape != (h, w):
@@ -109,45 +112,41 @@ class Warper:
         return _dehomogenise(P[:, 0, None, None] * xs + P[:, 1, None, None] * ys + P[:, 2, None, None]
                              + P[:, 3, None, None] * d)
 
-    def points_to_view(self, k: int, xs, ys, i) -> tuple[np.ndarray, np.ndarray]:
-        """Where reference points ``(xs, ys)`` on planes ``i`` (one index per point) land in view ``k``:
-        ``(u, v)`` float64 arrays (Eq. A1; NaN behind the view)."""
-        xs, ys, i = (np.asarray(a) for a in (xs, ys, i))
+    def points_to_view(self, k: int, xs, ys, d) -> tuple[np.ndarray, np.ndarray]:
+        """Where reference points ``(xs, ys)`` at disparities ``d`` (one per point, any value) land in view
+        ``k``: ``(u, v)`` float64 arrays (Eq. A1; NaN behind the view).
+        """
+        xs, ys, d = (np.asarray(a, np.float64) for a in (xs, ys, d))
         if self._general is None:
             off = self.camera.view_offset(k)
-            d = self.disparities[i]
             return xs - d * off[0], ys - d * off[1]
-        u = np.full(xs.shape, np.nan)
-        v = np.full(xs.shape, np.nan)
-        for j in np.unique(i):
-            sel = i == j
-            q = self._general.homography(k, int(j)) @ np.stack([xs[sel], ys[sel], np.ones(sel.sum())])
-            front = q[2] > 1e-12
-            u[sel] = np.where(front, q[0] / np.where(front, q[2], 1.0), np.nan)
-            v[sel] = np.where(front, q[1] / np.where(front, q[2], 1.0), np.nan)
-        return u, v
+        P = self.camera.matrices[k] @ np.linalg.inv(self.camera.M0)  # [x y 1 d] -> view (Eq. A1)
+        q = P @ np.stack([xs, ys, np.ones_like(xs), d])
+        front = q[2] > 1e-12
+        wq = np.where(front, q[2], 1.0)
+        return np.where(front, q[0] / wq, np.nan), np.where(front, q[1] / wq, np.nan)
 
-    def transfer(self, k: int, xs, ys, i, j) -> tuple[np.ndarray, np.ndarray]:
-        """The reference position on plane ``j`` that view ``k`` sees through reference point ``(xs, ys)`` of
-        plane ``i`` (one plane pair per point): plane i into view k, then back out onto plane j."""
-        xs, ys, i, j = (np.asarray(a) for a in (xs, ys, i, j))
+    def transfer(self, k: int, xs, ys, d_from, d_to) -> tuple[np.ndarray, np.ndarray]:
+        """The reference position at disparity ``d_to`` that view ``k`` sees through reference point
+        ``(xs, ys)`` at disparity ``d_from`` (per point): into view k, then back out at the other depth.
+        """
+        xs, ys, d_from, d_to = (np.asarray(a, np.float64) for a in (xs, ys, d_from, d_to))
         if self._general is None:
             off = self.camera.view_offset(k)
-            dd = self.disparities[i] - self.disparities[j]
-            return xs - dd * off[0], ys - dd * off[1]
-        u, v = self.points_to_view(k, xs, ys, i)
-        X = np.full(xs.shape, np.nan)
-        Y = np.full(xs.shape, np.nan)
-        for jj in np.unique(j):
-            sel = j == jj
-            try:
-                Hinv = np.linalg.inv(self._general.homography(k, int(jj)))
-            except np.linalg.LinAlgError:
-                continue
-            q = Hinv @ np.stack([u[sel], v[sel], np.ones(sel.sum())])
-            X[sel] = q[0] / q[2]
-            Y[sel] = q[1] / q[2]
-        return X, Y
+            return xs - (d_from - d_to) * off[0], ys - (d_from - d_to) * off[1]
+        u, v = self.points_to_view(k, xs, ys, d_from)
+        # solve P [x y 1 d_to] ~ [u v 1] for (x, y): two linear equations per point, Cramer's rule
+        P = self.camera.matrices[k] @ np.linalg.inv(self.camera.M0)
+        c = P[:, 2, None] + P[:, 3, None] * d_to.reshape(1, -1)  # (3, N)
+        uu, vv = u.reshape(-1), v.reshape(-1)
+        a00, a01 = P[0, 0] - uu * P[2, 0], P[0, 1] - uu * P[2, 1]
+        a10, a11 = P[1, 0] - vv * P[2, 0], P[1, 1] - vv * P[2, 1]
+        r0, r1 = -(c[0] - uu * c[2]), -(c[1] - vv * c[2])
+        det = a00 * a11 - a01 * a10
+        with np.errstate(invalid="ignore", divide="ignore"):
+            X = np.where(np.abs(det) > 1e-12, (r0 * a11 - a01 * r1) / det, np.nan)
+            Y = np.where(np.abs(det) > 1e-12, (a00 * r1 - r0 * a10) / det, np.nan)
+        return X.reshape(xs.shape), Y.reshape(xs.shape)
 
     def coverage(self, k: int, i: int) -> np.ndarray:
         """(H, W) float32 in [0, 1]: how much of each plane-``i`` cell's bilinear footprint lies in view ``k``."""
