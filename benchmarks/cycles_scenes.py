@@ -15,24 +15,44 @@ For each scene it writes ``DIR/<scene>/``:
   own fixed seed, so the render noise is independent between views (as a camera's sensor noise is).
 * ``element.exr``: the CG element alone from the reference camera, premultiplied R,G,B,A (film transparent)
   and Z (its depth in scene units where A > 0, 1e10 elsewhere), float.
-* ``comp.exr``: the ground-truth comp: the reference view rendered again with the element in the scene, with
-  the reference view's seed. The element is emission-only and visible to camera rays only (not to shadow,
-  diffuse, glossy, transmission or volume rays, and not sampled as a light), so the comp equals the plate
-  wherever the element is not seen; the script measures that and stores the number in ``scene.json``.
+* ``comp.exr``: the ground-truth comp: the reference view rendered again, with the reference view's seed,
+  with the element shown in the scene, so nearer objects occlude it with their real soft edges. The element
+  is emission-only and visible to camera rays only (not to shadow, diffuse, glossy, transmission or volume
+  rays, and never sampled as a light), so it changes nothing but the pixels it is seen in. It stays in the
+  scene for the plates too, switched to a Transparent BSDF (camera rays pass through it), so plates and comp
+  trace the same BVH: the comp then equals the plate *exactly* wherever the element's alpha is zero (the
+  script measures it and stores the number in ``scene.json``; see :func:`element_material` for why).
 * ``disparity.exr``: the reference view's true disparity d = f*B/Z of the nearest surface on each pixel's
   centre ray (channels Y and Z, both the disparity, as ``vfxstereo solve --disparity-out`` writes them;
   0 where the ray sees the sky at infinity). A depth pass is not a matte: at soft edges it is one surface
   or the other, never a mix.
-* ``scene.json``: positions, reference, f (px), B (scene units per step), the element's disparity D, the
-  range of disparities in the reference view, a suggested plane list, render settings, times, the measured
+* ``scene.json``: positions, reference, f (px), B (scene units per step), the element's disparity
+  D = f*B/Z_element, the range of disparities in the reference view, each visible object's pixel count and
+  disparity range, what covers the element, a suggested plane list, render settings, times, the measured
   comp-vs-plate difference, and a description.
 
 and ``DIR/<scene>.png``, a contact sheet: views 0-3 on the first row; view 4, comp, element (over grey)
 and disparity (white = near) on the second.
 
-Everything is deterministic (fixed numpy and Cycles seeds, no adaptive sampling, no denoiser, no path
-guiding). No denoiser: a denoiser would make each view's noise depend on its content and blur thin
-structures differently per view; plain path-traced noise is what a camera's grain is like and it is
+Scenes (``--scenes``; at 480x270 every one spans ~1-15 px per view step over 3+ depth layers):
+
+* ``sphere_plant``: photo backdrop, textured sphere, a plant of thin stems and leaves; the card between the
+  plant and the sphere;
+* ``plush_wall``: low-texture painted wall, photo-textured slanted box, a ball with 5000 hair curves; the
+  card between the ball and the box;
+* ``fence_dof``: a thin wire fence in front of a slanted photo wall, ground and sky, depth of field (the same
+  aperture for every camera); the card behind the fence;
+* ``plane_check``: the test scene of ``tests/blender/test_cycles_scenes.py`` (not rendered by default).
+
+Fixed numpy and Cycles seeds, no adaptive sampling, no denoiser, no path guiding: a re-run renders the same
+scenes with the same noise. Not bit for bit, though: Cycles builds its scene in an order that changes from
+process to process, so a re-run differs by float rounding (~1e-6) on meshes and, on ~1-2 % of the fur's
+pixels, by one sample's worth (a few 1e-3 at 96 spp), probably where a ray meets two hair segments at the
+same distance.
+Within one run plates and comp share the scene (persistent data), which is what makes them equal.
+
+No denoiser: a denoiser would make each view's noise depend on its content and blur thin structures
+differently per view; plain path-traced noise is what a camera's grain is like and it is
 identical between plate and comp.
 """
 
@@ -48,7 +68,7 @@ import sys
 import tempfile
 import time
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 # bpy writes to the user's config and cache folders: point both at a temporary folder before importing it.
@@ -90,7 +110,6 @@ class Built:
     element_depth: float
     baseline: float
     description: str
-    layers: dict = field(default_factory=dict)
     dof: dict | None = None
 
 
@@ -413,10 +432,8 @@ def scene_sphere_plant(width: int, height: int) -> Built:
     return Built(el, ze, baseline=0.065,
                  description="Photo backdrop (Middlebury teddy im2 on a plane at Z=22), a sphere with a procedural "
                              "noise/voronoi texture at Z=5.75-8.25, a plant of thin stems (radius 3-9 mm) and "
-                             "bent leaves at Z~2.3-3.0 near the camera (thin structures with holes); the element, "
-                             "an emission checker card at Z=4.2, sits between the plant and the sphere.",
-                 layers={"backdrop": [z_back, z_back], "sphere": [zs - rs, zs + rs], "plant": [2.2, 3.0],
-                         "element": [ze, ze]})
+                             "bent leaves at Z~2.0-3.5 near the camera (thin structures with holes); the element, "
+                             "an emission checker card at Z=4.2, sits between the plant and the sphere.")
 
 
 def scene_plush_wall(width: int, height: int) -> Built:
@@ -481,16 +498,14 @@ def scene_plush_wall(width: int, height: int) -> Built:
     bpy.context.scene.cycles_curves.shape = "THICK"
     # element between the plush ball and the box
     ze = 4.0
-    ex, ey = xy_at(0.56 * width, 0.5 * height, ze, f, width, height)
+    ex, ey = xy_at(0.53 * width, 0.5 * height, ze, f, width, height)
     el = element_card(ze, (ex, ey), (0.32 * width, 0.45 * height), f)
     return Built(el, ze, baseline=0.058,
                  description="Low-texture painted wall (flat colour, 4 % gradient) at Z=14, a box with the "
-                             "Middlebury Art view1 photo on its slanted faces at Z~5-8, and in front a plush "
+                             "Middlebury Art view1 photo on its slanted faces at Z~5.2-6.6, and in front a plush "
                              f"ball (body radius {rf}) with {n_hair} hair curves (round, Principled BSDF, radius "
                              "0.8-2.8 mm) at Z~2.0-2.9; the element, an emission checker card at Z=4.0, sits "
-                             "between the ball and the box.",
-                 layers={"wall": [zw, zw], "box": [5.0, 8.0], "plush": [zf - rf - 0.24, zf + rf],
-                         "element": [ze, ze]})
+                             "between the ball and the box.")
 
 
 def scene_fence_dof(width: int, height: int) -> Built:
@@ -534,12 +549,10 @@ def scene_fence_dof(width: int, height: int) -> Built:
     fstop = 1.4
     return Built(el, ze, baseline=0.065,
                  description="A chain-link fence (diamond lattice of 4.5 mm wires and posts) at Z~2.1 in front of "
-                             "a slanted rock wall (Middlebury Rocks1 view1, Z~5-16) and gravel ground running "
+                             "a slanted rock wall (Middlebury Rocks1 view1, Z~7.5-17) and gravel ground running "
                              "to the horizon, sky above (at infinity, d = 0); depth of field focused on the "
                              f"element (35 mm f/{fstop}, the same for every camera), so the fence is soft. The "
                              "element, an emission checker card at Z=5.0, is behind the fence.",
-                 layers={"fence": [zf - 0.04, zf + 0.04], "wall": [5.0, 16.0], "ground": [1.3, 30.0],
-                         "element": [ze, ze]},
                  dof={"focus_distance": ze, "fstop": fstop})
 
 
@@ -568,8 +581,7 @@ def scene_plane_check(width: int, height: int) -> Built:
     ze = 2.0
     ex, ey = xy_at(0.72 * width, 0.5 * height, ze, f, width, height)
     el = element_card(ze, (ex, ey), (0.3 * width, 0.4 * height), f)
-    return Built(el, ze, baseline=0.05, description="Test scene: an emission noise plane at Z=3 over a lit plane.",
-                 layers={"plane": [zp, zp], "back": [zb, zb], "element": [ze, ze]})
+    return Built(el, ze, baseline=0.05, description="Test scene: an emission noise plane at Z=3 over a lit plane.")
 
 
 # Samples per pixel when --samples is not given: enough for a grain below ~0.01 rms (the fur and the
@@ -747,14 +759,21 @@ def render_scene(name: str, out_root: Path, width: int, height: int, samples: in
     times = {}
     views = list(POSITIONS) if views is None else list(views)
 
-    # 1. the true depth of the reference view: one pinhole ray through each pixel centre (no DOF, no filter)
+    # 1. the true depth of the reference view: one pinhole ray through each pixel centre (no DOF, no filter),
+    #    and which object each ray hits (object index pass)
     el.hide_render = True
+    objects = [ob for ob in sc.objects if ob.type in ("MESH", "CURVES")]
+    for i, ob in enumerate(objects, start=1):
+        ob.pass_index = i
+    sc.view_layers[0].use_pass_object_index = True
     sc.camera = cams[REFERENCE]
     ref_dof = cams[REFERENCE].data.dof.use_dof
     cams[REFERENCE].data.dof.use_dof = False
     sc.cycles.samples, sc.cycles.filter_width, sc.cycles.max_bounces = 1, 0.01, 0
     ch, times["depth"] = render(tmp / "depth.exr")
     depth = ch["Depth.Z"]
+    index = np.rint(ch["Object Index.X"]).astype(np.int64)
+    sc.view_layers[0].use_pass_object_index = False
     sky = depth > FAR
     disparity = np.where(sky, 0.0, f * B / np.where(sky, 1.0, depth)).astype(np.float32)
     cams[REFERENCE].data.dof.use_dof = ref_dof
@@ -805,9 +824,21 @@ def render_scene(name: str, out_root: Path, width: int, height: int, samples: in
         h_plate = plates[REFERENCE].astype(np.float16).astype(np.float32)
         half_diff = float(np.abs(h_comp - h_plate)[~support].max()) if (~support).any() else float("nan")
 
+    D = f * B / built.element_depth
+    seen, in_front = {}, {}
+    covered = element[..., 3] >= 0.5
+    for i, ob in enumerate(objects, start=1):
+        on = (index == i) & ~sky
+        if on.any():
+            seen[ob.name] = {"pixels": int(on.sum()), "disparity": [float(disparity[on].min()),
+                                                                    float(disparity[on].max())]}
+        front = on & covered & (disparity > D)
+        if front.any():
+            in_front[ob.name] = int(front.sum())
+    if sky.any():
+        seen["sky"] = {"pixels": int(sky.sum()), "disparity": [0.0, 0.0]}
     d_min, d_max = float(disparity.min()), float(disparity.max())
     d_obj = float(disparity[~sky].min()) if (~sky).any() else float("nan")
-    D = f * B / built.element_depth
     planes = suggested_planes(d_min, d_max)
     write_exr(out / "disparity.exr", np.stack([disparity, disparity], axis=-1), "YZ", half=False)
     info = {
@@ -823,12 +854,14 @@ def render_scene(name: str, out_root: Path, width: int, height: int, samples: in
         "convention": "a point at column x of the reference view with disparity d = f*B/Z appears at column "
                       "x - d*(p_k - p_ref) of view k; larger d is nearer",
         "element": {"file": "element.exr", "depth": built.element_depth, "disparity": D,
-                    "channels": "R,G,B,A premultiplied scene-linear, Z depth (1e10 where A = 0)"},
+                    "channels": "R,G,B,A premultiplied scene-linear, Z depth (1e10 where A = 0)",
+                    "covered_pixels": int(covered.sum()),
+                    "occluded_pixels": int((covered & ~sky & (disparity > D)).sum())},
         "disparity_range": [d_min, d_max],
         "disparity_range_of_surfaces": [d_obj, d_max],
         "has_sky": bool(sky.any()),
-        "layers_depth_range": built.layers,
-        "layers_disparity_range": {k: [f * B / v[1], f * B / v[0]] for k, v in built.layers.items()},
+        "objects": seen,
+        "objects_in_front_of_element": in_front,
         "planes": planes,
         "planes_cli": f"{planes[0]:g}:{planes[-1]:g}:0.5",
         "comp_vs_plate": {"max_abs_outside_element": outside, "max_abs_outside_element_half": half_diff,
@@ -885,6 +918,8 @@ def main(argv=None) -> int:
     ap.add_argument("--threads", type=int, default=0, help="render threads (default: all cores)")
     ap.add_argument("--blend", action="store_true", help="also save each scene as scene.blend")
     args = ap.parse_args(argv)
+    if args.samples is not None and args.samples < 1:
+        ap.error("--samples must be at least 1")
     names = [s.strip() for s in args.scenes.split(",") if s.strip()]
     unknown = [s for s in names if s not in SCENES]
     if unknown:
