@@ -249,8 +249,9 @@ def sgm_path(C, guide, P1, P2, sigma, dy, dx, S):
 def fill_from_farther(disparity, reliable, guide, out):
     """Give each unreliable pixel a value from the nearest reliable pixels in 8 directions.
 
-    Candidates nearer than their median are dropped (a hole is filled from the background around it, never
-    by inventing a nearer surface); of the rest, the one whose guide value is closest to the pixel's wins.
+    Candidates nearer than the second farthest of them are dropped (a hole is filled from the background around
+    it, never by inventing a nearer surface; the second, so that one stray far value does not decide); of the
+    rest, the one whose guide value is closest to the pixel's wins.
     Pixels with no reliable pixel in any direction stay as they are.
     """
     H, W = disparity.shape
@@ -276,9 +277,9 @@ def fill_from_farther(disparity, reliable, guide, out):
                     n += 1
             if n == 0:
                 continue
-            med = np.sort(vals[:n])[n // 2]
+            limit = np.sort(vals[:n])[min(1, n - 1)]
             best = np.inf
             for j in range(n):
-                if vals[j] <= med and diffs[j] < best:
+                if vals[j] <= limit and diffs[j] < best:
                     best = diffs[j]
                     out[y, x] = vals[j]

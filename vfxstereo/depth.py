@@ -68,8 +68,10 @@ class DepthConfig:
     fill_occluded: bool = True
     """After the visibility pass, pixels whose winning cell no other view sees (occluded in all of them) are
     unreliable and filled (step 6's fill)."""
-    consistency: bool = False
-    """Step 6: check against the disparity of another view and fill what disagrees."""
+    consistency: bool | None = None
+    """Step 6: check against the disparity of another view and fill what disagrees. None: on for a stereo pair
+    (K = 2), off with more views, as measured: on the classic pairs of tsukuba, teddy, Art and Baby3 it takes
+    the mean bad-pixel rate from 17.8 to 16.4 %; with all views of six sets it helps three and hurts three."""
     consistency_view: int | None = None
     """Steps from the reference to the view of the check (default: the farthest view on the side with more)."""
     median: int = 3
@@ -347,7 +349,7 @@ def robust_depth(views: np.ndarray, warper, reference: int, *, config: DepthConf
         # no other view sees the winning cell: half-occluded in every view, so matching said nothing there
         seen = sum(np.take_along_axis(c, win[..., None], axis=2)[..., 0].astype(np.int32) for c in count.values())
         reliable &= seen > 0
-    if config.consistency:
+    if config.consistency or (config.consistency is None and K == 2):
         off = _consistency_offset(warper, reference, config.consistency_view)
         if off is not None:
             reliable &= _consistency(S, win, d, off)

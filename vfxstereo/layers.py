@@ -50,6 +50,15 @@ def view_gains(views: np.ndarray, warper, reference: int, disparity: np.ndarray)
     return gains
 
 
+def clamp(rgba: np.ndarray, white: float) -> np.ndarray:
+    """In place: premultiplied colour into ``[0, white * alpha]`` (colours carried from other views through
+    their gains can overshoot the reference's white).
+    """
+    np.clip(rgba[..., :3], 0.0, None, out=rgba[..., :3])
+    np.minimum(rgba[..., :3], np.float32(white) * rgba[..., 3:4], out=rgba[..., :3])
+    return rgba
+
+
 def plane_index(disparity: np.ndarray, disparities: np.ndarray) -> np.ndarray:
     """Index of the plane nearest each disparity (int32, NaN -> -1)."""
     d = np.asarray(disparities, np.float64)

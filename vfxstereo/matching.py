@@ -123,8 +123,10 @@ def census_transform_reference(gray: np.ndarray, radius: tuple[int, int] = CENSU
 
 def hamming(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Number of differing bits of two uint64 arrays (numpy reference of the kernels' popcount)."""
-    x = np.bitwise_xor(a, b)
-    return np.unpackbits(x.view(np.uint8).reshape(*x.shape, 8), axis=-1).sum(axis=-1).astype(np.float64)
+    x = np.bitwise_xor(np.asarray(a, np.uint64), np.asarray(b, np.uint64))
+    shape = x.shape
+    bits = np.unpackbits(np.ascontiguousarray(x.reshape(-1)).view(np.uint8).reshape(-1, 8), axis=-1)
+    return bits.sum(axis=-1).astype(np.float64).reshape(shape)
 
 
 @dataclass

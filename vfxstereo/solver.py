@@ -317,13 +317,14 @@ def _solve_robust(views, warper, camera, disparities, config, *, progress, white
     front = timed("layers", layers.front_volume, index, plate, len(disparities))
     hidden = timed("layers", layers.hidden_volume, views, warper, ref_view, res.disparity, index, gains=gains)
     report(progress, "layers", 1, 1)
-    initial = front + hidden  # disjoint: hidden cells lie strictly behind the front ones
+    initial = layers.clamp(front + hidden, white)  # disjoint: hidden cells lie strictly behind the front ones
     rgba = initial
     if config.soft_edges:
         from vfxstereo import softedge
 
         rgba, _ = timed("soft-edges", softedge.soften_edges, rgba, views, warper, ref_view, res.disparity, index,
                         params=config.soft_edge, gains=gains, progress=progress)
+        layers.clamp(rgba, white)
     if config.refine_iterations > 0 and any(config.lambdas):
         rgba = timed("refine", refine.refine, initial, disparities, views, warper,
                      config.refine_config(white=white), progress=progress)
