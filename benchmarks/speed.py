@@ -2,7 +2,7 @@
 
 Plates: :func:`vfxstereo.samples.layered_scene` (a random-dot backdrop and three soft-edged random-dot layers,
 K = 5 views half a step apart, so odd disparities shift by half pixels), solved on the planes
-``d = 0 .. D-1`` with the configuration ``vfxstereo.solve`` uses when given none (``SolveConfig.preset(DEFAULT_PRESET)``; or
+``d = 0 .. D-1`` with the configuration ``vfxstereo.solve`` uses when given none (the default preset; or
 ``--preset``). Cases: 960x540, 1920x1080 and 4096x2160 with 32, 64 and 128 planes (``--quick``: 240x136
 and 480x270 with 8 and 16 planes).
 

@@ -1,10 +1,10 @@
 """Z-keying production-like plates: our comp against an SGBM depth key and a true-depth key, side by side.
 
-Scenes: :mod:`vfxstereo.scenes` -- three or four planar layers each (slanted walls, photo cards, a fence,
+Scenes: :mod:`vfxstereo.zkey_scenes` -- three or four planar layers each (slanted walls, photo cards, a fence,
 hair, fur, plants, a wire mesh with holes, low-texture painted walls from the alpha-matting and Middlebury
 sets), per-view exposure gains, vignetting and noise; 320 x 240, disparities 0.4-14.6 px per view step;
 solved on planes 0..16 step 0.5 (33 planes). Every scene is run with K = 5 views and as a stereo rig
-(K = 2, the reference the left view). The scenes in :data:`vfxstereo.scenes.HELD_OUT` were kept out of
+(K = 2, the reference the left view). The scenes in :data:`vfxstereo.zkey_scenes.HELD_OUT` were kept out of
 tuning: ``--held-out`` scores them (the default run scores the others).
 
 For each element (a full-frame checker card and a centred one, at every element disparity of the scene):
@@ -17,7 +17,7 @@ For each element (a full-frame checker card and a centred one, at every element 
 * **true-depth key** -- a hard key from the true front-most disparity (alpha > 0.5);
 
 PSNR (dB, scene-linear RGB, peak 1) against the true comp, over the frame and over the soft-edge band
-(:meth:`vfxstereo.scenes.Scene.band`) where the element is (alpha > 0); an element that touches fewer than 50
+(:meth:`vfxstereo.zkey_scenes.Scene.band`) where the element is (alpha > 0); an element that touches fewer than 50
 band pixels is not scored. Means over (scene, K, element) rows; the issue's targets: ours
 beats the SGBM key on every row (frame and band) and the true-depth key on the band by >= 1 dB on average
 (row PSNRs capped at :data:`CAP` dB in the means).
@@ -37,7 +37,8 @@ from pathlib import Path
 import common  # benchmarks/ is on sys.path when run as a script
 import numpy as np
 
-from vfxstereo import SolveConfig, baselines, composite, scenes, solve
+from vfxstereo import SolveConfig, baselines, composite, solve
+from vfxstereo import zkey_scenes as scenes
 from vfxstereo.stack import LayerStack
 
 PLANES = np.arange(0.0, 16.0 + 0.25, 0.5)
@@ -53,7 +54,7 @@ CYCLES_DIR = Path(os.environ.get("VFXSTEREO_CYCLES", common.out_dir() / "cycles"
 
 
 class CyclesScene:
-    """A Cycles-rendered scene as the z-key benchmark needs it (the interface of :class:`vfxstereo.scenes.Scene`).
+    """A Cycles-rendered scene as the z-key benchmark needs it (the interface of :class:`vfxstereo.zkey_scenes.Scene`).
 
     The true comp is the render with the element in the scene; the true depth the renderer's depth pass (one
     surface per pixel). The soft-edge band: pixels within 3 px of where the true depth crosses the element's

@@ -83,7 +83,7 @@ def test_transfer_and_points_to_view_agree_with_the_shift_convention(general, rn
 def _hair_scene(flat_background=False):
     """A soft-edged foreground (real alpha, GT04's hair, small) at d = 6 over a background at d = 1; K = 5,
     no noise: the soft edges' alpha is known exactly."""
-    from vfxstereo import scenes
+    from vfxstereo import zkey_scenes as scenes
 
     rng = np.random.default_rng(0)
     canvas = (100 + 2 * 16, 140 + 2 * 16)

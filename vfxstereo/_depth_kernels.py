@@ -121,8 +121,9 @@ def accumulate_shift(cref, vref, cview, vview, sx, sy, zbuf, planes, tol, rho_ce
 
 @njit(cache=True, parallel=True, nogil=True)
 def accumulate_map(cref, vref, cview, vview, umap, vmap, zbuf, plane, tol, rho_census, rho_ad, total, count, i):
-    """General cameras: as :func:`accumulate_shift` for one plane ``i`` whose cells sample the view at
-    ``(umap, vmap)`` (NaN: behind the camera).
+    """General cameras: :func:`accumulate_shift` for one plane ``i``.
+
+    The plane's cells sample the view at ``(umap, vmap)`` (NaN: behind the camera).
     """
     H, W = cref.shape
     for y in prange(H):
@@ -140,8 +141,10 @@ def accumulate_map(cref, vref, cview, vview, umap, vmap, zbuf, plane, tol, rho_c
 
 @njit(cache=True, nogil=True)
 def zbuffer(u, v, disparity, out):
-    """Splat each reference pixel's disparity onto the (up to) four view pixels around ``(u, v)``, keeping the
-    largest (nearest) per view pixel. ``out`` starts at -inf.
+    """Splat each reference pixel's disparity onto the view pixels around where it lands.
+
+    Each goes to the (up to) four view pixels around ``(u, v)``; each view pixel keeps the largest (nearest).
+    ``out`` starts at -inf.
     """
     H, W = u.shape
     Ho, Wo = out.shape

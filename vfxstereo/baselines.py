@@ -23,8 +23,9 @@ SGBM_SETTINGS = {"blockSize": 5, "P1": 8 * 3 * 25, "P2": 32 * 3 * 25, "uniquenes
 
 
 def fill_row_farther(disparity: np.ndarray, valid: np.ndarray) -> np.ndarray:
-    """Invalid pixels take the smaller (farther) of the nearest valid values to their left and right on the row;
-    NaN where a row has no valid pixel.
+    """Invalid pixels take the farther of the nearest valid values to their left and right on the row.
+
+    The farther is the smaller disparity; NaN where a row has no valid pixel.
     """
     h, w = disparity.shape
     cols = np.arange(w)[None, :]

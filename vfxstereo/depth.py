@@ -134,8 +134,9 @@ def box_filter(cost: np.ndarray, size: int) -> np.ndarray:
 
 
 def view_sides(camera, reference: int) -> list[int]:
-    """-1 or +1 per view: which side of the reference it lies on along the rig's main direction (0 for the
-    reference and for views level with it).
+    """-1 or +1 per view: which side of the reference it lies on along the rig's main direction.
+
+    0 for the reference and for views level with it.
     """
     p = camera.positions - camera.positions[reference]
     axis = np.array([1.0, 0.0]) if np.ptp(p[:, 0]) >= np.ptp(p[:, 1]) else np.array([0.0, 1.0])
@@ -177,8 +178,10 @@ def local_deviation(gray: np.ndarray, size: int = 9) -> np.ndarray:
 
 def flat_bias(cost: np.ndarray, disparities: np.ndarray, strength: float, gap_scale: float,
               texture: np.ndarray | None = None, texture_scale: float | None = None) -> None:
-    """Add, in place, ``strength * exp(-gap / gap_scale) * (d - d_min) / (d_max - d_min)`` to ``cost``
-    (times ``exp(-texture / texture_scale)`` when both are given).
+    """Add a cost growing towards the near planes where the cost curve is flat (in place).
+
+    The cost added is ``strength * exp(-gap / gap_scale) * (d - d_min) / (d_max - d_min)`` (times
+    ``exp(-texture / texture_scale)`` when both are given).
 
     ``gap`` is each pixel's mean cost over the planes minus its least cost: near zero where nothing in the
     views tells the planes apart (a plain wall, sky, a blown-out highlight), large where the texture decides.
@@ -238,8 +241,10 @@ def zbuffer(warper, disparity: np.ndarray, k: int) -> np.ndarray:
 
 
 def fill_unreliable(disparity: np.ndarray, reliable: np.ndarray, guide: np.ndarray) -> np.ndarray:
-    """Unreliable pixels take a reliable neighbour's disparity: of the nearest reliable pixels in 8 directions,
-    those not nearer than their median, and of them the one most alike in ``guide``.
+    """Unreliable pixels take a reliable neighbour's disparity, never a nearer one.
+
+    Of the nearest reliable pixels in 8 directions, those not nearer than the second farthest of them, and of
+    those the one most alike in ``guide``.
     """
     from vfxstereo import _depth_kernels
 
@@ -250,8 +255,10 @@ def fill_unreliable(disparity: np.ndarray, reliable: np.ndarray, guide: np.ndarr
 
 
 def _consistency(S: np.ndarray, win: np.ndarray, disparities: np.ndarray, offset: float) -> np.ndarray:
-    """True where the reference's winner agrees (within one pixel) with the winner of a view at ``offset``
-    (view steps, rectified along x) found by a diagonal search of ``S`` (Hirschmueller 2008, Section 3.4).
+    """True where the reference's winner agrees with another view's, within one pixel of that view.
+
+    The other view, at ``offset`` view steps along x, gets its winners by a diagonal search of ``S``
+    (Hirschmueller 2008, Section 3.4).
     """
     h, w, D = S.shape
     shift = np.rint(np.asarray(disparities) * offset).astype(np.int64)  # view pixel u = x - shift
@@ -368,8 +375,9 @@ def robust_depth(views: np.ndarray, warper, reference: int, *, config: DepthConf
 
 
 def _consistency_offset(warper, reference: int, steps: int | None) -> float | None:
-    """Baseline offset (view steps along x) of the view the consistency check uses, or None (not a rectified
-    horizontal rig).
+    """Baseline offset (view steps along x) of the view the consistency check uses.
+
+    None where the rig is not rectified and horizontal.
     """
     cam = warper.camera
     if cam.is_general or np.any(cam.positions[:, 1] != cam.positions[0, 1]):

@@ -1,5 +1,6 @@
-"""The initial RGBA volume from a depth map: the front surface, and the hidden layers behind it that other views
-see (beyond the paper: the paper selects cells by thresholded winner-take-all, Section 4).
+"""The initial RGBA volume from a depth map: the front surface, and the hidden layers other views see.
+
+Beyond the paper: the paper selects cells by thresholded winner-take-all (Section 4).
 
 * **Front surface.** Each reference pixel becomes one opaque cell on the plane nearest its disparity, with the
   reference view's own colour (the plate), so the flattened volume *is* the plate.
@@ -25,8 +26,10 @@ MIN_WEIGHT = 0.5
 
 
 def view_gains(views: np.ndarray, warper, reference: int, disparity: np.ndarray) -> np.ndarray:
-    """(K, 3) colour gains that bring each view to the reference's exposure: the median ratio of the reference's
-    colour to the view's at the pixels the depth map matches (mid-tones only). The reference's gain is 1.
+    """(K, 3) colour gains that bring each view to the reference's exposure.
+
+    Each is the median ratio of the reference's colour to the view's at the pixels the depth map matches
+    (mid-tones only). The reference's gain is 1.
 
     Cameras of an array differ in exposure and white balance; colours carried from one view into the
     reference's layers (hidden cells, soft edges) are multiplied by its gain.
@@ -51,8 +54,9 @@ def view_gains(views: np.ndarray, warper, reference: int, disparity: np.ndarray)
 
 
 def clamp(rgba: np.ndarray, white: float) -> np.ndarray:
-    """In place: premultiplied colour into ``[0, white * alpha]`` (colours carried from other views through
-    their gains can overshoot the reference's white).
+    """In place: premultiplied colour into ``[0, white * alpha]``.
+
+    Colours carried from other views through their gains can overshoot the reference's white.
     """
     np.clip(rgba[..., :3], 0.0, None, out=rgba[..., :3])
     np.minimum(rgba[..., :3], np.float32(white) * rgba[..., 3:4], out=rgba[..., :3])

@@ -70,9 +70,10 @@ class MatchingParams:
         return 1.0 + self.w_ad
 
     def tables(self) -> tuple[np.ndarray, np.ndarray]:
-        """``rho_census[h]`` for Hamming distances 0..64 and ``w_ad * rho_ad`` of colour differences in steps
-        of ``_depth_kernels.AD_TABLE_STEP`` up to where it reaches ``w_ad`` within float32 (the kernels'
-        look-up tables).
+        """The kernels' look-up tables: ``rho_census`` and ``w_ad * rho_ad``.
+
+        ``rho_census[h]`` for Hamming distances 0..64, ``w_ad * rho_ad`` of colour differences in steps of
+        ``_depth_kernels.AD_TABLE_STEP`` up to where it reaches ``w_ad`` within float32.
         """
         from vfxstereo._depth_kernels import AD_TABLE_STEP
 

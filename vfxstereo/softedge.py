@@ -98,8 +98,10 @@ def fill_colour(rgb: np.ndarray, known: np.ndarray, *, sigmas=(2.0, 6.0, 18.0, 5
 
 def background_image(views: np.ndarray, warper, plane: int, disparity: np.ndarray, *, dilate: int,
                      tolerance: float, gains: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Colour of plane ``plane`` at every reference position, from the views that see it clear of the
-    foreground grown by ``dilate`` px; ``(rgb (H, W, 3), seen (H, W) bool)``, unseen points filled.
+    """Colour of plane ``plane`` at every reference position, from the views that see it clearly.
+
+    A view counts where it sees the point clear of the foreground grown by ``dilate`` px. Returns
+    ``(rgb (H, W, 3), seen (H, W) bool)``, points no view sees filled from around.
     """
     from vfxstereo.depth import zbuffer
 
@@ -276,5 +278,6 @@ def _edges(index: np.ndarray, jump: int) -> np.ndarray:
 
 
 def check_params(params: SoftEdgeParams) -> None:
+    """Refuse settings that cannot work."""
     if params.radius < 1 or params.dilate < 0 or params.search < 1:
         raise VfxStereoError("soft edges: radius >= 1, dilate >= 0, search >= 1")

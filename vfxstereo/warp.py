@@ -75,8 +75,10 @@ class Warper:
         return view_to_plane(g, self.disparities[i], self.camera.view_offset(k))
 
     def shifts(self, k: int) -> tuple[np.ndarray, np.ndarray] | None:
-        """Rectified rigs: ``(sx, sy)``, each (D,) float64, so plane ``i``'s cell (x, y) lands at
-        ``(x - sx[i], y - sy[i])`` in view ``k``; ``None`` for general cameras (use :meth:`sample_map`).
+        """Rectified rigs: the shifts ``(sx, sy)`` of every plane in view ``k``, each (D,) float64.
+
+        Plane ``i``'s cell (x, y) lands at ``(x - sx[i], y - sy[i])``; ``None`` for general cameras (use
+        :meth:`sample_map`).
         """
         if self._general is not None:
             return None
@@ -84,8 +86,9 @@ class Warper:
         return self.disparities * off[0], self.disparities * off[1]
 
     def sample_map(self, k: int, i: int) -> tuple[np.ndarray, np.ndarray]:
-        """``(u, v)``, each (H, W) float32: the column and row of view ``k`` that plane ``i``'s cells land on
-        (Eq. A1; the positions :meth:`to_plane` samples bilinearly). NaN where the plane is behind the view.
+        """Where plane ``i``'s cells land in view ``k``: ``(u, v)``, each (H, W) float32.
+
+        The positions :meth:`to_plane` samples bilinearly (Eq. A1); NaN where the plane is behind the view.
         """
         h, w = self.shape
         ys, xs = np.mgrid[0:h, 0:w].astype(np.float64)
@@ -96,9 +99,10 @@ class Warper:
         return _dehomogenise(H[:, 0, None, None] * xs + H[:, 1, None, None] * ys + H[:, 2, None, None])
 
     def project(self, disparity: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-        """``(u, v)``, each (H, W) float32: where each reference pixel lands in view ``k`` at its own
-        disparity ``disparity[y, x]`` (Eq. A1 with d per pixel). NaN where the disparity is NaN or the point
-        is behind the view.
+        """Where each reference pixel lands in view ``k`` at its own disparity: ``(u, v)``, (H, W) float32.
+
+        Eq. A1 with d = ``disparity[y, x]`` per pixel; NaN where the disparity is NaN or the point is behind
+        the view.
         """
         d = np.asarray(disparity, dtype=np.float64)
         h, w = self.shape
@@ -113,8 +117,9 @@ class Warper:
                              + P[:, 3, None, None] * d)
 
     def points_to_view(self, k: int, xs, ys, d) -> tuple[np.ndarray, np.ndarray]:
-        """Where reference points ``(xs, ys)`` at disparities ``d`` (one per point, any value) land in view
-        ``k``: ``(u, v)`` float64 arrays (Eq. A1; NaN behind the view).
+        """Where reference points ``(xs, ys)`` at disparities ``d`` (one per point) land in view ``k``.
+
+        ``(u, v)`` float64 arrays (Eq. A1; NaN behind the view).
         """
         xs, ys, d = (np.asarray(a, np.float64) for a in (xs, ys, d))
         if self._general is None:
@@ -127,8 +132,9 @@ class Warper:
         return np.where(front, q[0] / wq, np.nan), np.where(front, q[1] / wq, np.nan)
 
     def transfer(self, k: int, xs, ys, d_from, d_to) -> tuple[np.ndarray, np.ndarray]:
-        """The reference position at disparity ``d_to`` that view ``k`` sees through reference point
-        ``(xs, ys)`` at disparity ``d_from`` (per point): into view k, then back out at the other depth.
+        """The reference position at disparity ``d_to`` that view ``k`` sees through a point at ``d_from``.
+
+        Per point ``(xs, ys)``: into view k at ``d_from``, then back out at ``d_to``.
         """
         xs, ys, d_from, d_to = (np.asarray(a, np.float64) for a in (xs, ys, d_from, d_to))
         if self._general is None:

@@ -36,8 +36,10 @@ from vfxstereo.stack import over
 
 @dataclass
 class PlanarLayer:
-    """Premultiplied RGBA on a plane: ``rgba`` on the scene canvas, disparity ``d0 + gx (x - cx) + gy (y - cy)``
-    in canvas pixels around the canvas centre.
+    """Premultiplied RGBA on a plane.
+
+    ``rgba`` lies on the scene canvas; the disparity is ``d0 + gx (x - cx) + gy (y - cy)`` in canvas pixels
+    around the canvas centre.
     """
 
     name: str
@@ -75,6 +77,7 @@ class Scene:
 
     @property
     def canvas_shape(self) -> tuple[int, int]:
+        """``(H, W)`` of the canvas the layers lie on (the views plus the margin)."""
         return self.layers[0].rgba.shape[:2]
 
     @property
@@ -85,6 +88,7 @@ class Scene:
 
     @property
     def K(self) -> int:  # noqa: N802 - the paper's symbol
+        """Number of views."""
         return len(self.positions)
 
     def _centre(self) -> tuple[float, float]:
@@ -172,6 +176,7 @@ class Scene:
         return out
 
     def disparity_range(self) -> tuple[float, float]:
+        """The least and largest disparity of any layer over the reference frame."""
         ds = self.layer_disparities()
         return float(min(d.min() for d in ds)), float(max(d.max() for d in ds))
 
@@ -344,9 +349,7 @@ def _canvas() -> tuple[int, int]:
 
 @_register
 def trolls_art(K: int = 5, data_dir=None) -> Scene:
-    """Troll hair (GT04) in front, a wire pencil holder (GT25, a mesh with holes) in the middle, the Art photo on
-    a slanted back wall.
-    """
+    """Troll hair (GT04), a wire pencil holder (GT25, a mesh with holes), the Art photo on a slanted wall."""
     rng = np.random.default_rng(1)
     cv = _canvas()
     bg = PlanarLayer("Art wall", opaque(photo("middlebury2005_2006_halfsize/Art", cv, data_dir=data_dir)),
@@ -372,9 +375,7 @@ def wicker_wall(K: int = 5, data_dir=None) -> Scene:
 
 @_register
 def tree_cloth(K: int = 5, data_dir=None) -> Scene:
-    """A bonsai's thin branches and leaves (GT26) over a pumpkin (GT19) over a cloth (Cloth3), four depths with a
-    fence between pumpkin and cloth.
-    """
+    """A bonsai (GT26) over a pumpkin (GT19) over a fence over a cloth (Cloth3): four depths."""
     rng = np.random.default_rng(3)
     cv = _canvas()
     cloth = PlanarLayer("cloth", opaque(photo("middlebury2005_2006_halfsize/Cloth3", cv, data_dir=data_dir)), 1.8)
@@ -402,8 +403,9 @@ def doll_plant(K: int = 5, data_dir=None) -> Scene:
 
 @_register
 def fur_grey_wall(K: int = 5, data_dir=None) -> Scene:
-    """A fluffy rabbit (GT15) and a teddy's fur (GT10) in front of a plain grey wall: soft edges against almost no
-    texture, the hardest case for the views to separate foreground from background.
+    """A fluffy rabbit (GT15) and a teddy's fur (GT10) in front of a plain grey wall.
+
+    Soft edges against almost no texture: the hardest case for the views to tell foreground from background.
     """
     rng = np.random.default_rng(5)
     cv = _canvas()
@@ -454,9 +456,7 @@ def artichoke_books(K: int = 5, data_dir=None) -> Scene:
 
 @_register
 def flowers_fence(K: int = 5, data_dir=None) -> Scene:
-    """(held out) Red flowers and leaves (GT21) behind a fence, in front of a plain wall: thin bars in front of a
-    soft foreground.
-    """
+    """(held out) Red flowers and leaves (GT21) behind a fence, in front of a plain wall."""
     rng = np.random.default_rng(9)
     cv = _canvas()
     wall = PlanarLayer("wall", opaque(painted_wall(cv, (0.7, 0.66, 0.6), rng)), 1.0)

@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from vfxstereo import baselines, composite, scenes, solve
+from vfxstereo import baselines, composite, solve
+from vfxstereo import zkey_scenes as scenes
 from vfxstereo.errors import VfxStereoError
 
 
