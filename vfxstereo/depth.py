@@ -122,15 +122,9 @@ def box_filter(cost: np.ndarray, size: int) -> np.ndarray:
     """Mean over a ``size`` x ``size`` window per plane (edges replicated), in place where possible."""
     if size <= 1:
         return cost
-    import cv2
+    from scipy import ndimage
 
-    out = np.empty_like(cost)
-    D = cost.shape[2]
-    # OpenCV filters at most 512 channels at once
-    for i0 in range(0, D, 512):
-        part = np.ascontiguousarray(cost[..., i0:i0 + 512])
-        out[..., i0:i0 + 512] = cv2.blur(part, (size, size), borderType=cv2.BORDER_REPLICATE).reshape(part.shape)
-    return out
+    return ndimage.uniform_filter(cost, size=(size, size, 1), mode="nearest")
 
 
 def view_sides(camera, reference: int) -> list[int]:
@@ -168,11 +162,11 @@ bias, not a weakly textured strip or the rows along the frame edge."""
 
 def local_deviation(gray: np.ndarray, size: int = 9) -> np.ndarray:
     """Standard deviation of ``gray`` over a ``size`` x ``size`` window (edges replicated)."""
-    import cv2
+    from scipy import ndimage
 
     g = np.asarray(gray, np.float32)
-    m = cv2.blur(g, (size, size), borderType=cv2.BORDER_REPLICATE)
-    m2 = cv2.blur(g * g, (size, size), borderType=cv2.BORDER_REPLICATE)
+    m = ndimage.uniform_filter(g, size, mode="nearest")
+    m2 = ndimage.uniform_filter(g * g, size, mode="nearest")
     return np.sqrt(np.maximum(m2 - m * m, 0.0))
 
 
@@ -192,10 +186,10 @@ def flat_bias(cost: np.ndarray, disparities: np.ndarray, strength: float, gap_sc
     """
     if strength <= 0 or cost.shape[2] < 2:
         return
-    import cv2
+    from scipy import ndimage
 
     gap = cost.mean(axis=2) - cost.min(axis=2)
-    gap = cv2.blur(gap, (FLAT_WINDOW, FLAT_WINDOW), borderType=cv2.BORDER_REFLECT)  # flat over a region
+    gap = ndimage.uniform_filter(gap, FLAT_WINDOW, mode="reflect")  # flat over a region
     weight = strength * np.exp(-gap / gap_scale)
     if texture is not None and texture_scale:
         weight = weight * np.exp(-texture / texture_scale)
@@ -363,9 +357,9 @@ def robust_depth(views: np.ndarray, warper, reference: int, *, config: DepthConf
     if not reliable.all():
         disparity = fill_unreliable(disparity, reliable, prep.grey[reference])
     if config.median > 1:
-        import cv2
+        from scipy import ndimage
 
-        disparity = cv2.medianBlur(np.ascontiguousarray(disparity, np.float32), config.median)
+        disparity = ndimage.median_filter(np.asarray(disparity, np.float32), config.median, mode="nearest")
     index = np.clip(np.rint(np.interp(disparity, d, np.arange(D))), 0, D - 1).astype(np.int32)
     timed("finish", t0)
     return DepthResult(disparity=disparity.astype(np.float32), index=index, reliable=reliable,
