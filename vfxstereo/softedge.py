@@ -19,7 +19,7 @@ blended with the depth map's own 0/1 label as a weak prior.
 The background: on each back plane b, a background image made from the views that see its points *clear of
 the foreground grown by* ``dilate`` px (so that hair strands the depth map missed do not leak into it):
 the z-buffer of the dilated depth map in each view decides (Section 5's visibility), and points no view sees
-clearly are filled from around (normalised convolution).
+clearly take the colour of the nearest point that is seen.
 
 The band: pixels within ``radius`` px of a depth jump of at least ``jump`` px per view step; a pixel on the
 far side of a jump gets the nearest surface around it as its front plane f and its own plane as b; a pixel on
@@ -78,40 +78,39 @@ def _sample(img: np.ndarray, X: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, 
     return out.astype(np.float32), inside
 
 
-def fill_colour(rgb: np.ndarray, known: np.ndarray, *, sigmas=(2.0, 6.0, 18.0, 54.0)) -> np.ndarray:
-    """Unknown pixels of ``rgb`` filled by normalised convolution at growing scales (known pixels kept)."""
-    out = rgb.copy()
-    todo = ~known
-    w = known.astype(np.float32)
-    for s in sigmas:
-        if not todo.any():
-            break
-        den = ndimage.gaussian_filter(w, s)
-        num = np.stack([ndimage.gaussian_filter(rgb[..., c] * w, s) for c in range(3)], axis=-1)
-        got = todo & (den > 1e-3)
-        out[got] = num[got] / den[got, None]
-        todo &= ~got
-    if todo.any():
-        out[todo] = rgb[known].mean(axis=0) if known.any() else 0.0
-    return out
+def fill_colour(rgb: np.ndarray, known: np.ndarray) -> np.ndarray:
+    """Unknown pixels of ``rgb`` take the colour of the nearest known pixel (known pixels kept)."""
+    if known.all() or not known.any():
+        return rgb if known.any() else np.zeros_like(rgb)
+    iy, ix = ndimage.distance_transform_edt(~known, return_distances=False, return_indices=True)
+    return rgb[iy, ix]
 
 
-def background_image(views: np.ndarray, warper, plane: int, disparity: np.ndarray, *, dilate: int,
-                     tolerance: float, gains: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Colour of plane ``plane`` at every reference position, from the views that see it clearly.
-
-    A view counts where it sees the point clear of the foreground grown by ``dilate`` px. Returns
-    ``(rgb (H, W, 3), seen (H, W) bool)``, points no view sees filled from around.
-    """
+def grown_zbuffers(views: np.ndarray, warper, disparity: np.ndarray, dilate: int) -> list[np.ndarray]:
+    """Per view, the z-buffer of the depth map with its nearer surfaces grown by ``dilate`` px."""
     from vfxstereo.depth import zbuffer
 
     grown = ndimage.maximum_filter(disparity, size=2 * dilate + 1) if dilate > 0 else disparity
+    return [zbuffer(warper, grown, k) for k in range(views.shape[0])]
+
+
+def background_image(views: np.ndarray, warper, plane: int, disparity: np.ndarray, *, dilate: int,
+                     tolerance: float, gains: np.ndarray | None = None,
+                     zbuffers: list[np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Colour of plane ``plane`` at every reference position, from the views that see it clearly.
+
+    A view counts where it sees the point clear of the foreground grown by ``dilate`` px (``zbuffers``: those
+    of :func:`grown_zbuffers`, made here when not given). Returns ``(rgb (H, W, 3), seen (H, W) bool)``, points
+    no view sees filled from around.
+    """
+    if zbuffers is None:
+        zbuffers = grown_zbuffers(views, warper, disparity, dilate)
     d_b = float(warper.disparities[plane])
     h, w = warper.shape
     total = np.zeros((h, w, 3), np.float32)
     weight = np.zeros((h, w), np.float32)
     for k in range(views.shape[0]):
-        zb = zbuffer(warper, grown, k)
+        zb = zbuffers[k]
         clear = (zb <= d_b + tolerance).astype(np.float32)
         wt = warper.to_plane(clear, k, plane)
         g = 1.0 if gains is None else gains[k]
@@ -192,9 +191,10 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     d_back = np.where(far_side, disparity, far)[ys, xs].astype(np.float64)
     # the backgrounds, one image per back plane in use
     backgrounds = {}
+    grown = grown_zbuffers(views, warper, disparity, p.dilate)
     for n, bp in enumerate(np.unique(b)):
         backgrounds[int(bp)] = background_image(views, warper, int(bp), disparity, dilate=p.dilate,
-                                                tolerance=tol, gains=gains)[0]
+                                                tolerance=tol, gains=gains, zbuffers=grown)[0]
         report(progress, "soft-edges", n + 1, len(np.unique(b)) + 1)
     K = views.shape[0]
     N = len(ys)
