@@ -21,7 +21,8 @@ import common  # benchmarks/ is on sys.path when run as a script
 
 BENCHMARKS = {
     "middlebury": "middlebury",
-    "zkey": "zkey_edges",
+    "zkey": "zkey_scenes",
+    "zkey_edges": "zkey_edges",
     "throughput": "throughput",
     "speed": "speed",
 }

@@ -157,11 +157,11 @@ def run_case(width: int, height: int, planes: int, *, preset: str | None = None)
 
     config = SolveConfig.preset(preset or DEFAULT_PRESET)
     views = VIEWS  # layered_scene makes five
-    estimate = solver.memory_needed((height, width), planes, views) if hasattr(solver, "memory_needed") else None
+    estimate = solver.memory_needed((height, width), planes, views, depth=config.depth)
     result = {"width": width, "height": height, "planes": planes, "views": views,
               "settings": config.to_dict(), "estimate": estimate}
     try:
-        solver.check_memory((height, width), planes, views)
+        solver.check_memory((height, width), planes, views, depth=config.depth)
     except VfxStereoError as exc:
         return {**result, "refused": str(exc)}
     t0 = time.perf_counter()

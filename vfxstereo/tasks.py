@@ -156,7 +156,7 @@ class SolveTask:
         if self.camera is not None and self.camera.K != k:
             raise VfxStereoError(f"--cameras describes {self.camera.K} cameras for {k} views")
         d = len(self.disparities) if self.disparities is not None else len(default_disparities(w))
-        solver.check_memory((h, w), d, k)
+        solver.check_memory((h, w), d, k, depth=SolveConfig.preset(self.preset).depth)
 
     def __call__(self, job: Job, progress: Progress | None = None) -> None:
         """Solve the frame of ``job`` and write its outputs."""
