@@ -22,10 +22,10 @@ SGBM_SETTINGS = {"blockSize": 5, "P1": 8 * 3 * 25, "P2": 32 * 3 * 25, "uniquenes
 """OpenCV StereoSGBM settings of the comparisons (mode HH)."""
 
 
-def fill_row_farther(disparity: np.ndarray, valid: np.ndarray) -> np.ndarray:
-    """Invalid pixels take the farther of the nearest valid values to their left and right on the row.
+def farther_source(disparity: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per pixel, the column of the farther of the nearest valid pixels to its left and right on the row.
 
-    The farther is the smaller disparity; NaN where a row has no valid pixel.
+    Returns ``(column (H, W) int64, found (H, W) bool)``; the farther is the smaller disparity.
     """
     h, w = disparity.shape
     cols = np.arange(w)[None, :]
@@ -34,7 +34,18 @@ def fill_row_farther(disparity: np.ndarray, valid: np.ndarray) -> np.ndarray:
     rows = np.arange(h)[:, None]
     lv = np.where(left >= 0, disparity[rows, np.clip(left, 0, w - 1)], np.inf)
     rv = np.where(right < w, disparity[rows, np.clip(right, 0, w - 1)], np.inf)
-    out = np.where(valid, disparity, np.minimum(lv, rv)).astype(np.float32)
+    column = np.where(lv <= rv, np.clip(left, 0, w - 1), np.clip(right, 0, w - 1))
+    return column, np.isfinite(np.minimum(lv, rv))
+
+
+def fill_row_farther(disparity: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """Invalid pixels take the farther of the nearest valid values to their left and right on the row.
+
+    The farther is the smaller disparity; NaN where a row has no valid pixel.
+    """
+    column, found = farther_source(disparity, valid)
+    filled = disparity[np.arange(disparity.shape[0])[:, None], column]
+    out = np.where(valid, disparity, np.where(found, filled, np.nan)).astype(np.float32)
     out[~np.isfinite(out)] = np.nan
     return out
 
@@ -120,15 +131,8 @@ def forward_warp(image: np.ndarray, disparity: np.ndarray, offset: float) -> np.
     out[ys, target[ys, xs]] = image[ys, xs]  # later (nearer) writes win
     zbuf[ys, target[ys, xs]] = disparity[ys, xs]
     filled = np.isfinite(zbuf)
-    d_fill = fill_row_farther(np.nan_to_num(zbuf, nan=0.0), filled)
-    # each hole copies the colour of the neighbour whose disparity it took
-    cols = np.arange(w)[None, :]
-    left = np.maximum.accumulate(np.where(filled, cols, -1), axis=1)
-    right = np.minimum.accumulate(np.where(filled, cols, w)[:, ::-1], axis=1)[:, ::-1]
-    rows = np.arange(h)[:, None]
-    lv = np.where(left >= 0, zbuf[rows, np.clip(left, 0, w - 1)], np.inf)
-    rv = np.where(right < w, zbuf[rows, np.clip(right, 0, w - 1)], np.inf)
-    src = np.where(lv <= rv, np.clip(left, 0, w - 1), np.clip(right, 0, w - 1))
-    holes = ~filled & np.isfinite(d_fill)
-    out[holes] = out[rows, src][holes]
+    # each hole copies the colour of the farther of its nearest filled neighbours on the row
+    src, found = farther_source(np.nan_to_num(zbuf, nan=0.0), filled)
+    holes = ~filled & found
+    out[holes] = out[np.arange(h)[:, None], src][holes]
     return out
