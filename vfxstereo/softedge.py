@@ -78,12 +78,18 @@ def _sample(img: np.ndarray, X: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, 
     return out.astype(np.float32), inside
 
 
-def fill_colour(rgb: np.ndarray, known: np.ndarray) -> np.ndarray:
-    """Unknown pixels of ``rgb`` take the colour of the nearest known pixel (known pixels kept)."""
+def fill_colour(rgb: np.ndarray, known: np.ndarray, *, sigma: float = 3.0) -> np.ndarray:
+    """Unknown pixels of ``rgb`` filled from the known ones around them (known pixels kept).
+
+    The nearest known pixel's colour, then smoothed over the unknown region by a Gaussian of ``sigma`` px
+    normalised to it (a cheap stand-in for a normalised convolution at growing scales).
+    """
     if known.all() or not known.any():
         return rgb if known.any() else np.zeros_like(rgb)
     iy, ix = ndimage.distance_transform_edt(~known, return_distances=False, return_indices=True)
-    return rgb[iy, ix]
+    out = rgb[iy, ix]
+    smooth = np.stack([ndimage.gaussian_filter(out[..., c], sigma) for c in range(out.shape[2])], axis=-1)
+    return np.where(known[..., None], rgb, smooth).astype(np.float32)
 
 
 def grown_zbuffers(views: np.ndarray, warper, disparity: np.ndarray, dilate: int) -> list[np.ndarray]:
