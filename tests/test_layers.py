@@ -127,3 +127,11 @@ def test_the_background_image_is_the_background_where_a_view_sees_it():
     truth = s.stack.rgba[bg, ..., :3]
     assert seen.mean() > 0.8  # measured 0.89: behind the middle of the square no view sees
     np.testing.assert_allclose(rgb[seen], truth[seen], atol=1e-4)
+
+
+def test_soft_edge_settings_that_cannot_work_are_refused():
+    from vfxstereo.errors import VfxStereoError
+
+    for bad in ({"radius": 0}, {"dilate": -1}, {"snap": 0.5}):
+        with pytest.raises(VfxStereoError, match="soft edges"):
+            softedge.SoftEdgeParams(**bad)

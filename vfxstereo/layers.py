@@ -12,7 +12,7 @@ Beyond the paper: the paper selects cells by thresholded winner-take-all (Sectio
   Warper (Eq. 1). Cells reached from several views get the mean; only cells strictly behind the front
   surface of their pixel are kept.
 
-The volume's opacities are 0 or 1; soft edges come later (:mod:`vfxstereo.matting`).
+The volume's opacities are 0 or 1; soft edges come later (:mod:`vfxstereo.softedge`).
 """
 
 from __future__ import annotations

@@ -66,6 +66,10 @@ class SoftEdgeParams:
     search: int = 24
     """Farthest a foreground colour sample is looked for, px."""
 
+    def __post_init__(self):
+        if self.radius < 1 or self.dilate < 0 or self.search < 1 or not 0 <= self.snap < 0.5:
+            raise VfxStereoError("soft edges: radius >= 1, dilate >= 0, search >= 1, 0 <= snap < 0.5")
+
 
 def _sample(img: np.ndarray, X: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Bilinear samples of ``img`` (H, W, C) at float positions; and where they lie inside the frame."""
@@ -281,9 +285,3 @@ def _edges(index: np.ndarray, jump: int) -> np.ndarray:
     e[1:] |= dy
     e[:-1] |= dy
     return e
-
-
-def check_params(params: SoftEdgeParams) -> None:
-    """Refuse settings that cannot work."""
-    if params.radius < 1 or params.dilate < 0 or params.search < 1:
-        raise VfxStereoError("soft edges: radius >= 1, dilate >= 0, search >= 1")
