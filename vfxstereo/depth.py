@@ -5,9 +5,11 @@ Szeliski & Golland decide depth by thresholded winner-take-all on the colour var
 This stage gives the layered model a dependable front surface instead, from classical multi-view stereo:
 
 1. **Matching** (:mod:`vfxstereo.matching`): AD-census cost of the reference against each view, on every
-   plane, averaged over the views that see the cell. Census is robust to exposure and vignetting
-   differences between cameras; each view's term saturates, so an occluded view cannot outvote the rest.
-2. **Window** (``box``): the cost averaged over a small square window, which steadies flat surfaces.
+   plane, each view's costs centred per pixel (``centre``), averaged over the views that see the cell.
+   Census is robust to exposure and vignetting differences between cameras; each view's term saturates, so
+   an occluded view cannot outvote the rest.
+2. **Window** (``box``): the cost averaged over a small square window, which steadies flat surfaces; then the
+   flat-surface bias (``far_bias``, :func:`flat_bias`).
 3. **Semi-global matching** (:mod:`vfxstereo.sgm`): 8 paths, P2 lowered at image edges.
 4. **Winner and sub-pixel**: the plane of least aggregated cost, refined by a parabola (Section 8.1).
 5. **Visibility** (the paper's Section 5 made from a depth map): the disparity map is forward-projected
@@ -17,14 +19,16 @@ This stage gives the layered model a dependable front surface instead, from clas
    the views that see them (Kang, Szeliski & Chai, CVPR 2001, choose views by left/right subsets; measured
    here, explicit visibility beats a subset minimum, which on a rig with one view on one side and five on
    the other picks the noisy lone view: see :data:`SUBSETS_MEASURED`).
-6. **Consistency** (optional, ``consistency``): the disparity of the view ``consistency_view`` steps away
-   is read off the aggregated volume (a diagonal search, Hirschmueller 2008) and compared with the
-   reference's by re-projection; pixels that disagree by more than one pixel of that view are unreliable
-   and filled from the farther of their reliable neighbours (:func:`fill_unreliable`), never by inventing a
-   nearer surface.
+6. **Unreliable pixels**: those whose winning cell no other view sees (``fill_occluded``) and, for a stereo
+   pair, those the consistency check rejects (``consistency``: the disparity of the view
+   ``consistency_view`` steps away is read off the aggregated volume by a diagonal search, Hirschmueller
+   2008, and compared with the reference's by re-projection) are filled from the farther of their reliable
+   neighbours (:func:`fill_unreliable`), never by inventing a nearer surface.
 7. A 3x3 median.
 
-Measured on all 31 Middlebury sets in ``benchmarks/middlebury.py`` (the table in the module's docstring).
+Measured (``benchmarks/middlebury.py``, all 31 sets, one published px apart, the GT's view as reference):
+0.49x OpenCV SGBM's bad pixels on average (9.6 % against 19.5 %), at most 0.91x (Midd1); from the classic
+pair alone 18.1 %. Per set: tsukuba 4.4 %, venus 1.4 %, teddy 5.8 %, cones 10.7 %, Art 11.7 %, Midd1 26.4 %.
 """
 
 from __future__ import annotations
