@@ -112,7 +112,7 @@ class DepthResult:
     disparity: np.ndarray
     """(H, W) float32 sub-pixel disparity of the reference camera (px per view step), every pixel decided."""
     index: np.ndarray
-    """(H, W) int32 index of the plane nearest ``disparity``."""
+    """(H, W) int32 index of the plane nearest ``disparity`` (:func:`vfxstereo.layers.plane_index`)."""
     reliable: np.ndarray
     """(H, W) bool: the winner passed the consistency check (all True without it)."""
     aggregated: np.ndarray | None = None
@@ -364,7 +364,9 @@ def robust_depth(views: np.ndarray, warper, reference: int, *, config: DepthConf
         from scipy import ndimage
 
         disparity = ndimage.median_filter(np.asarray(disparity, np.float32), config.median, mode="nearest")
-    index = np.clip(np.rint(np.interp(disparity, d, np.arange(D))), 0, D - 1).astype(np.int32)
+    from vfxstereo.layers import plane_index
+
+    index = plane_index(disparity, d)
     timed("finish", t0)
     return DepthResult(disparity=disparity.astype(np.float32), index=index, reliable=reliable,
                        aggregated=S if keep_volume else None,

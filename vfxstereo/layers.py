@@ -86,7 +86,8 @@ def front_volume(index: np.ndarray, plate: np.ndarray, n_planes: int) -> np.ndar
 
 
 def hidden_volume(views: np.ndarray, warper, reference: int, disparity: np.ndarray, index: np.ndarray,
-                  *, guide: np.ndarray | None = None, gains: np.ndarray | None = None) -> np.ndarray:
+                  *, guide: np.ndarray | None = None, gains: np.ndarray | None = None,
+                  zbuffers: list[np.ndarray] | None = None) -> np.ndarray:
     """(D, H, W, 4) premultiplied: opaque cells behind the front surface, coloured by the views that see them.
 
     Parameters
@@ -104,6 +105,8 @@ def hidden_volume(views: np.ndarray, warper, reference: int, disparity: np.ndarr
         Grey images of the views for the edge-aware fill (default: the views' luma).
     gains : ndarray of shape (K, 3), optional
         Colour gains of the views (:func:`view_gains`); the colours they give are multiplied by them.
+    zbuffers : list of ndarray of shape (H, W), optional
+        ``disparity``'s z-buffer in each view (:func:`vfxstereo.depth.zbuffer`), made here when not given.
     """
     from vfxstereo.depth import fill_unreliable, zbuffer
     from vfxstereo.matching import grey
@@ -115,7 +118,7 @@ def hidden_volume(views: np.ndarray, warper, reference: int, disparity: np.ndarr
     for k in range(K):
         if k == reference:
             continue
-        zb = zbuffer(warper, disparity, k)
+        zb = zbuffer(warper, disparity, k) if zbuffers is None else zbuffers[k]
         covered = np.isfinite(zb)
         if covered.all() or not covered.any():
             continue

@@ -145,7 +145,8 @@ class SoftEdges:
 
 def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, disparity: np.ndarray,
                  index: np.ndarray, *, params: SoftEdgeParams | None = None, tolerance: float | None = None,
-                 gains: np.ndarray | None = None, progress: Progress | None = None) -> tuple[np.ndarray, SoftEdges]:
+                 gains: np.ndarray | None = None, zbuffers: list[np.ndarray] | None = None,
+                 progress: Progress | None = None) -> tuple[np.ndarray, SoftEdges]:
     """Soft alpha along the depth edges of ``volume`` (see the module docstring).
 
     Parameters
@@ -161,6 +162,8 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
         Visibility tolerance in disparity units (default: two plane steps).
     gains : ndarray of shape (K, 3), optional
         Colour gains of the views (:func:`vfxstereo.layers.view_gains`).
+    zbuffers : list of ndarray of shape (H, W), optional
+        ``disparity``'s z-buffer in each view (:func:`vfxstereo.depth.zbuffer`), made here when not given.
 
     Returns
     -------
@@ -217,7 +220,7 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
         I[k], inside = _sample(views[k], u, v)
         if gains is not None:
             I[k] *= gains[k]
-        zb = zbuffer(warper, disparity, k)
+        zb = zbuffer(warper, disparity, k) if zbuffers is None else zbuffers[k]
         zk = ndimage.map_coordinates(zb, [np.nan_to_num(v), np.nan_to_num(u)], order=0, mode="nearest")
         ok[k] = inside & (zk <= d_front + tol)  # nothing nearer than the front surface hides the point in view k
         X, Y = warper.transfer(k, xf, yf, d_front, d_back)

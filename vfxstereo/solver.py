@@ -318,10 +318,12 @@ def _solve_robust(views, warper, camera, disparities, config, *, progress, white
                 progress=progress)
     for name, seconds in res.timings.items():
         timings[f"depth.{name}"] = seconds
-    index = layers.plane_index(res.disparity, disparities)
+    index = res.index
+    zbuffers = [depth.zbuffer(warper, res.disparity, k) for k in range(views.shape[0])]  # hidden layers, edges
     gains = timed("layers", layers.view_gains, views, warper, ref_view, res.disparity)
     front = timed("layers", layers.front_volume, index, plate, len(disparities))
-    hidden = timed("layers", layers.hidden_volume, views, warper, ref_view, res.disparity, index, gains=gains)
+    hidden = timed("layers", layers.hidden_volume, views, warper, ref_view, res.disparity, index, gains=gains,
+                   zbuffers=zbuffers)
     report(progress, "layers", 1, 1)
     initial = layers.clamp(front + hidden, white)  # disjoint: hidden cells lie strictly behind the front ones
     rgba = initial
@@ -329,7 +331,7 @@ def _solve_robust(views, warper, camera, disparities, config, *, progress, white
         from vfxstereo import softedge
 
         rgba, _ = timed("soft-edges", softedge.soften_edges, rgba, views, warper, ref_view, res.disparity, index,
-                        params=config.soft_edge, gains=gains, progress=progress)
+                        params=config.soft_edge, gains=gains, zbuffers=zbuffers, progress=progress)
         layers.clamp(rgba, white)
     if config.refine_iterations > 0 and any(config.lambdas):
         rgba = timed("refine", refine.refine, initial, disparities, views, warper,

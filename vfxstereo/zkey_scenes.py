@@ -287,7 +287,7 @@ def photo(name: str, shape, *, data_dir=None) -> np.ndarray:
     return load_background(name, shape=shape, data_dir=data_dir)
 
 
-def card(shape, D_label: str = "", *, centre=None, size=None, angle: float = 20.0) -> np.ndarray:
+def card(shape, *, centre=None, size=None, angle: float = 20.0) -> np.ndarray:
     """The CG element of the z-key tests: an anti-aliased checker card (:func:`vfxstereo.samples.cg_element`)."""
     from vfxstereo.samples import cg_element
 
