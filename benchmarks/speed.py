@@ -37,6 +37,24 @@ matting     the RGBA volume read and written once (32 D N); the band it changes 
 subpixel    three cost samples read and the disparity written per pixel (16 N)
 ==========  ===============================================================================================
 
+The robust path (the default), with P = ``depth_config.visibility_passes + 1`` matching passes and L the
+planes the stack holds (D, or fewer with ``keep_empty_planes=False``):
+
+============  =============================================================================================
+stage         bytes it must touch
+============  =============================================================================================
+depth.match   per pass: each of the K - 1 other views adds its cost into the cost sum and count (read and
+              written, 10 D N); then the mean, the 5x5 window and the flat bias read and write the volume
+              (28 D N). The AD-census cost of a cell-view is arithmetic (a 63-bit Hamming distance, two
+              bilinear taps, two exponentials from tables): this stage is bound by compute, not memory,
+              and its ratio says how far (its ns per cell-view is in the first table)
+depth.sgm     per pass: the cost read and the aggregated cost written, by two sweeps of four paths each
+              (the fewest that give 8 paths: 2 x (4 + 8) D N), and the winner's search (4 D N)
+depth.finish  the disparity maps (16 N)
+layers        the stack written once (16 L N) and the views read once (12 K N)
+soft-edges    the stack's alpha read (4 L N) and the views read (12 K N); the band it writes is small
+============  =============================================================================================
+
 A stage the model does not know (a new stage of the solver) shows its time and ``--`` for the ratio.
 Also reported: nanoseconds per cell-view (pixels x planes x views; constant if the cost is linear) and
 the share of reference pixels whose disparity is within 1 of the truth (a fast solve must still solve).
@@ -96,9 +114,22 @@ def _counts(settings: dict) -> dict:
     }
 
 
-def stage_bytes(stage: str, *, n: int, d: int, k: int, settings: dict) -> float | None:
-    """Bytes ``stage`` must touch in one solve of ``n`` pixels, ``d`` planes, ``k`` views (None: no model)."""
+def stage_bytes(stage: str, *, n: int, d: int, k: int, settings: dict, layers: int | None = None) -> float | None:
+    """Bytes ``stage`` must touch in one solve of ``n`` pixels, ``d`` planes, ``k`` views (None: no model);
+    ``layers``: the planes the stack holds (robust depth; default ``d``)."""
     c = _counts(settings)
+    if settings.get("depth") == "robust":
+        passes = int(settings.get("depth_config", {}).get("visibility_passes", 1)) + 1
+        lay = d if layers is None else layers
+        robust = {
+            "depth.match": passes * ((k - 1) * 10 * d * n + 28 * d * n),
+            "depth.sgm": passes * 28 * d * n,
+            "depth.finish": 16 * n,
+            "layers": 16 * lay * n + 12 * k * n,
+            "soft-edges": 4 * lay * n + 12 * k * n,
+        }
+        robust["depth"] = robust["depth.match"] + robust["depth.sgm"] + robust["depth.finish"]
+        return float(robust[stage]) if stage in robust else None
     model = {
         "sweep": c["sweeps"] * (12 * k * n + 20 * d * n) + c["weighted_sweeps"] * 4 * d * k * n,
         "aggregate": c["sweeps"] * c["aggregation_iterations"] * 8 * d * n,
@@ -147,8 +178,11 @@ def _reset_peak() -> bool:
         return False
 
 
-def run_case(width: int, height: int, planes: int, *, preset: str | None = None) -> dict:
-    """Make the plates and solve them here; what :func:`main` prints as JSON with ``--case``."""
+def run_case(width: int, height: int, planes: int, *, preset: str | None = None, drop: bool = False) -> dict:
+    """Make the plates and solve them here; what :func:`main` prints as JSON with ``--case``.
+
+    ``drop``: solve with ``keep_empty_planes=False`` (robust depth).
+    """
     import resource
 
     from vfxstereo import samples, solver
@@ -156,12 +190,17 @@ def run_case(width: int, height: int, planes: int, *, preset: str | None = None)
     from vfxstereo.errors import VfxStereoError
 
     config = SolveConfig.preset(preset or DEFAULT_PRESET)
+    if drop:
+        config = config.replace(keep_empty_planes=False)
     views = VIEWS  # layered_scene makes five
-    estimate = solver.memory_needed((height, width), planes, views, depth=config.depth)
+    robust = config.depth == "robust"
+    memory = {"depth": config.depth, "strip_memory": config.depth_config.strip_memory if robust else None,
+              "layers": 1 if drop else None}
+    estimate = solver.memory_needed((height, width), planes, views, **memory)
     result = {"width": width, "height": height, "planes": planes, "views": views,
-              "settings": config.to_dict(), "estimate": estimate}
+              "settings": config.to_dict(), "estimate": estimate, "drop": drop}
     try:
-        solver.check_memory((height, width), planes, views, depth=config.depth)
+        solver.check_memory((height, width), planes, views, **memory)
     except VfxStereoError as exc:
         return {**result, "refused": str(exc)}
     t0 = time.perf_counter()
@@ -192,17 +231,21 @@ def run_case(width: int, height: int, planes: int, *, preset: str | None = None)
             progress.close()
     result["seconds"] = time.perf_counter() - t0
     result["timings"] = dict(solved.timings)
+    result["layers"] = solved.stack.depth
+    result["estimate"] = solver.memory_needed((height, width), planes, views, **{**memory, "layers": solved.stack.depth})
     result["peak"] = _status_bytes("VmHWM")
     result["maxrss"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024  # KiB on Linux
     result["good"] = float(np.mean(np.abs(solved.disparity - truth) <= 1.0))
     return result
 
 
-def _spawn(width: int, height: int, planes: int, *, preset: str | None, timeout: float | None) -> dict:
+def _spawn(width: int, height: int, planes: int, *, preset: str | None, timeout: float | None,
+           drop: bool = False) -> dict:
     """:func:`run_case` in a fresh interpreter; a death or a timeout becomes ``{"failed": why}``."""
     argv = [sys.executable, os.path.abspath(__file__), "--case", f"{width}x{height}", str(planes)]
     argv += ["--preset", preset] if preset else []
-    case = {"width": width, "height": height, "planes": planes, "views": VIEWS}
+    argv += ["--drop-empty-planes"] if drop else []
+    case = {"width": width, "height": height, "planes": planes, "views": VIEWS, "drop": drop}
     try:
         proc = subprocess.run(argv, stdout=subprocess.PIPE, stderr=None, text=True, timeout=timeout)
     except subprocess.TimeoutExpired:
@@ -230,7 +273,7 @@ def _stages(results: list[dict]) -> list[str]:
 
 
 def _label(r: dict) -> str:
-    return f"{r['width']}x{r['height']}"
+    return f"{r['width']}x{r['height']}" + (" (empty planes dropped)" if r.get("drop") else "")
 
 
 def _status(r: dict) -> str | None:
@@ -258,10 +301,12 @@ def tables(results: list[dict], bytes_per_second: float) -> str:
         rows.append(head + [r["seconds"]] + times
                     + [_gib(r["peak"]), _gib(r.get("start")), _gib(r["estimate"]), r["seconds"] / cell_views * 1e9,
                        100 * r["good"]])
-        bounds = [stage_bytes(s, n=n, d=d, k=k, settings=r["settings"]) for s in stages]
+        bounds = [stage_bytes(s, n=n, d=d, k=k, settings=r["settings"], layers=r.get("layers")) for s in stages]
         ratios = [None if t is None or b is None or b == 0 else t / (b / bytes_per_second)
                   for t, b in zip(times, bounds, strict=True)]
-        known = [b for t, b in zip(times, bounds, strict=True) if t is not None and b is not None]
+        # the total's bound: the top-level stages only ("depth" holds "depth.match" and the others)
+        known = [b for st, t, b in zip(stages, times, bounds, strict=True)
+                 if t is not None and b is not None and "." not in st]
         ratio_rows.append(head + [sum(known) / 2**30] + ratios
                           + [r["seconds"] / (sum(known) / bytes_per_second) if known else None])
     out = common.section(
@@ -290,7 +335,9 @@ def tables(results: list[dict], bytes_per_second: float) -> str:
         ok_time = seconds is None or r["seconds"] <= seconds
         ok_mem = r["peak"] is not None and r["peak"] <= gib * 2**30
         peak = "unknown" if r["peak"] is None else f"{_gib(r['peak']):.1f} GiB"
-        lines.append(f"- {what}: {'MET' if ok_time and ok_mem else 'NOT MET'} ({r['seconds']:.0f} s, peak {peak})")
+        how = ", empty planes dropped (the full stack was refused)" if r.get("drop") else ""
+        lines.append(f"- {what}: {'MET' if ok_time and ok_mem else 'NOT MET'} ({r['seconds']:.0f} s, peak {peak}"
+                     f"{how})")
     if lines:
         out += common.section("Targets (issue 8)", "\n".join(lines))
     return out
@@ -332,7 +379,7 @@ def plot(results: list[dict], path) -> None:
 
 
 def run(*, quick: bool = False, sizes=None, planes=None, preset: str | None = None,
-        timeout: float | None = None) -> str:
+        timeout: float | None = None, drop: bool = False) -> str:
     """Run every case (each in its own process) and return the Markdown report; write it and the plot."""
     from tqdm import tqdm
 
@@ -344,7 +391,10 @@ def run(*, quick: bool = False, sizes=None, planes=None, preset: str | None = No
     with tqdm(cases, desc="speed cases", file=sys.stderr, dynamic_ncols=True) as bar:
         for w, h, d in bar:
             bar.set_postfix_str(f"{w}x{h} D={d}")
-            results.append(_spawn(w, h, d, preset=preset, timeout=timeout))
+            results.append(_spawn(w, h, d, preset=preset, timeout=timeout, drop=drop))
+            if "refused" in results[-1] and not drop and results[-1]["settings"].get("depth") == "robust":
+                # a full stack that cannot fit: the same plate with only the planes that hold something
+                results.append(_spawn(w, h, d, preset=preset, timeout=timeout, drop=True))
     config = f"preset `{preset}`" if preset else f"the default preset (`{DEFAULT_PRESET}`)"
     head = (f"Plates: `samples.layered_scene`, K = {VIEWS}; {config} (each case's settings are in the JSON "
             f"beside this table). Memory bandwidth {b / 1e9:.1f} GB/s (np.copyto, this run).")
@@ -373,13 +423,17 @@ def main(argv=None) -> int:
     parser.add_argument("--planes", type=lambda t: [int(p) for p in t.split(",")], help="plane counts, e.g. 32,64")
     parser.add_argument("--preset", help="a SolveConfig preset (default: the default preset, what solve uses)")
     parser.add_argument("--timeout", type=float, help="seconds a case may take before it is reported as failed")
+    parser.add_argument("--drop-empty-planes", action="store_true",
+                        help="solve with keep_empty_planes=False (by default only cases refused otherwise are)")
     parser.add_argument("--case", nargs=2, metavar=("WxH", "PLANES"), help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.case:
         w, h = _size(args.case[0])
-        print(json.dumps(run_case(w, h, int(args.case[1]), preset=args.preset), default=str))
+        print(json.dumps(run_case(w, h, int(args.case[1]), preset=args.preset, drop=args.drop_empty_planes),
+                         default=str))
         return 0
-    print(run(quick=args.quick, sizes=args.sizes, planes=args.planes, preset=args.preset, timeout=args.timeout))
+    print(run(quick=args.quick, sizes=args.sizes, planes=args.planes, preset=args.preset, timeout=args.timeout,
+              drop=args.drop_empty_planes))
     return 0
 
 

@@ -120,7 +120,7 @@ def run_scene(name: str, K: int, preset: str, *, figures: bool = True) -> list[d
     config = SolveConfig.preset(preset)
     with common.Stopwatch() as sw:
         res = solve(views, positions=scene.positions, reference=scene.reference, disparities=PLANES,
-                    config=config, return_details=True)
+                    config=config, return_details=True, keep_initial=True)
     stack = res.stack
     initial = LayerStack(res.initial, stack.disparities, stack.camera, white=stack.white, plate=plate)
     right = scene.reference + 1

@@ -365,7 +365,53 @@ def test_the_memory_check_refuses_a_robust_solve_that_cannot_fit():
     from vfxstereo import solver
 
     need = solver.memory_needed((2160, 4096), 128, 5, depth="robust")
-    assert need == 2160 * 4096 * 128 * 84  # 84 bytes per cell: measured 76 at 640x480x64, K = 5
-    assert solver.memory_needed((2160, 4096), 128, 5, depth="variance") > 2 * need
+    stack = 2160 * 4096 * 128 * 30  # the layers' volume and working images bound the peak at 4K x 128
+    assert stack < need < stack * 1.1
+    assert solver.memory_needed((2160, 4096), 128, 5, depth="variance") > 4 * need
+    small = solver.memory_needed((2160, 4096), 128, 5, depth="robust", layers=8)  # empty planes dropped
+    assert small < 0.2 * need
+    # the strips bound the depth stage: more planes without more layers only cost the strip budget
+    assert solver.memory_needed((2160, 4096), 1024, 5, layers=8) == small
     with pytest.raises(VfxStereoError, match="GiB"):
         solver.check_memory((2160, 4096), 4096, 5, depth="robust")  # about 3 TiB
+
+
+@pytest.mark.parametrize("keep", [True, False])
+def test_the_robust_memory_estimate_matches_what_the_solve_allocates(keep):
+    """tracemalloc sees numpy's buffers: the solve's peak is within 20 % of ``memory_needed``."""
+    import tracemalloc
+
+    from vfxstereo import samples, solver
+
+    s = samples.layered_scene(shape=(136, 240), num_planes=24)
+    config = SolveConfig.preset("robust").replace(keep_empty_planes=keep)
+    disparities = np.arange(24.0)
+    solve(s.views[:, :32, :48], positions=s.positions, reference=s.reference, disparities=disparities,
+          config=config)  # compile first: numba's caches are not the solve's
+    tracemalloc.start()
+    try:
+        stack = solve(s.views, positions=s.positions, reference=s.reference, disparities=disparities,
+                      config=config)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    need = solver.memory_needed((136, 240), 24, 5, layers=stack.depth)
+    peak += s.views.nbytes  # the plates: already resident here, counted in the estimate
+    assert 0.8 * need < peak < 1.2 * need, (peak, need)  # measured 0.85 (empty planes dropped), 1.03
+
+
+def test_a_stack_without_its_empty_planes_holds_the_same_layers():
+    """keep_empty_planes=False: the planes the full stack leaves empty are dropped, the others are identical."""
+    from vfxstereo import samples
+
+    s = samples.layered_scene(shape=(96, 128), num_planes=20, seed=1)
+    config = SolveConfig.preset("robust")
+    d = np.arange(20.0)
+    full = solve(s.views, positions=s.positions, reference=s.reference, disparities=d, config=config)
+    lean = solve(s.views, positions=s.positions, reference=s.reference, disparities=d,
+                 config=config.replace(keep_empty_planes=False))
+    used = full.rgba[..., 3].any(axis=(1, 2))
+    assert 2 <= used.sum() < 20
+    np.testing.assert_array_equal(lean.disparities, d[used])
+    np.testing.assert_array_equal(lean.rgba, full.rgba[used])
+    assert lean.metadata["hidden_cells"] == full.metadata["hidden_cells"] > 0

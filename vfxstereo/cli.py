@@ -136,7 +136,8 @@ def cmd_solve(args) -> int:
         preset=args.preset, view_names=None if view_names is None else tuple(view_names),
         positions=None if positions is None else tuple(float(p) for p in positions), reference=reference,
         disparities=parse_disparities(args.disparities) if args.disparities else None, camera=camera,
-        input_colorspace=args.input_colorspace, previews=os.path.abspath(args.previews) if args.previews else None)
+        input_colorspace=args.input_colorspace, previews=os.path.abspath(args.previews) if args.previews else None,
+        drop_empty_planes=args.drop_empty_planes)
     return _run(args, task, {"views": views},
                 {"stack": args.output, "disparity": args.disparity_out, "deep": args.deep_out})
 
@@ -387,6 +388,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--deep-out", help="deep EXR of the stack (R,G,B,A,Z,ZBack)")
     s.add_argument("--cameras", help="JSON with general cameras: matrices (K 3x4) and M0 (4x4)")
     s.add_argument("--previews", help="folder for PNG previews (contact sheet of layers, disparity, flat)")
+    s.add_argument("--drop-empty-planes", action="store_true",
+                   help="write only the planes that hold something (robust preset): a 4K plate over 128 planes "
+                        "then needs memory for its occupied layers only")
     s.set_defaults(func=cmd_solve)
 
     z = sub.add_parser("zkey", parents=[common], help="insert a CG element between the layers",

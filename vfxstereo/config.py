@@ -181,6 +181,11 @@ class SolveConfig:
     (:mod:`vfxstereo.softedge`, beyond the paper)."""
     soft_edge: _softedge.SoftEdgeParams = field(default_factory=_softedge.SoftEdgeParams)
     """Settings of the soft edges."""
+    keep_empty_planes: bool = True
+    """Robust depth only: the stack has a layer for every plane asked for. False: only the planes the depth
+    map uses (the front surface's planes; hidden cells and soft edges lie on them too), so a 4096x2160 plate
+    swept over 128 planes does not hold a 4096x2160x128 RGBA volume that is mostly empty. Without refinement
+    and edge matting (which may fill any plane) the layers kept are exactly those of the full stack."""
     extra: dict = field(default_factory=dict, compare=False)
     """Free-form settings for alternative methods (registry entries); recorded in metadata."""
 

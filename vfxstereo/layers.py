@@ -58,8 +58,9 @@ def clamp(rgba: np.ndarray, white: float) -> np.ndarray:
 
     Colours carried from other views through their gains can overshoot the reference's white.
     """
-    np.clip(rgba[..., :3], 0.0, None, out=rgba[..., :3])
-    np.minimum(rgba[..., :3], np.float32(white) * rgba[..., 3:4], out=rgba[..., :3])
+    for layer in (rgba if rgba.ndim == 4 else rgba[None]):  # a layer at a time: no volume-sized temporary
+        np.clip(layer[..., :3], 0.0, None, out=layer[..., :3])
+        np.minimum(layer[..., :3], np.float32(white) * layer[..., 3:4], out=layer[..., :3])
     return rgba
 
 
@@ -73,21 +74,43 @@ def plane_index(disparity: np.ndarray, disparities: np.ndarray) -> np.ndarray:
     return np.where(np.isfinite(x), idx, -1).astype(np.int32)
 
 
-def front_volume(index: np.ndarray, plate: np.ndarray, n_planes: int) -> np.ndarray:
-    """(D, H, W, 4) premultiplied: opaque plate colour on each pixel's plane ``index`` (-1: nothing)."""
+def slots(planes: np.ndarray | None, n_planes: int) -> np.ndarray:
+    """(n_planes,) int: each plane's layer in a volume holding only ``planes`` (-1: not held); identity for None.
+
+    The volumes of :func:`front_volume`, :func:`hidden_volume` and :func:`vfxstereo.softedge.soften_edges`
+    may hold a subset of the planes (``SolveConfig.keep_empty_planes``): layer ``j`` is plane ``planes[j]``.
+    """
+    if planes is None:
+        return np.arange(n_planes)
+    out = np.full(n_planes, -1, np.int64)
+    out[np.asarray(planes, np.int64)] = np.arange(len(planes))
+    return out
+
+
+def front_volume(index: np.ndarray, plate: np.ndarray, n_planes: int, *,
+                 planes: np.ndarray | None = None) -> np.ndarray:
+    """(D, H, W, 4) premultiplied: opaque plate colour on each pixel's plane ``index`` (-1: nothing).
+
+    ``planes``: hold only these planes (increasing; they must include every plane of ``index``).
+    """
     h, w = index.shape
     if plate.shape[:2] != (h, w):
         raise VfxStereoError(f"the plate {plate.shape[:2]} and the depth map {(h, w)} differ in size")
-    vol = np.zeros((n_planes, h, w, 4), np.float32)
+    slot = slots(planes, n_planes)
+    vol = np.zeros((n_planes if planes is None else len(planes), h, w, 4), np.float32)
     ys, xs = np.nonzero(index >= 0)
-    vol[index[ys, xs], ys, xs, :3] = plate[ys, xs, :3]
-    vol[index[ys, xs], ys, xs, 3] = 1.0
+    layer = slot[index[ys, xs]]
+    if (layer < 0).any():
+        raise VfxStereoError("front_volume: the depth map uses a plane the volume does not hold")
+    vol[layer, ys, xs, :3] = plate[ys, xs, :3]
+    vol[layer, ys, xs, 3] = 1.0
     return vol
 
 
 def hidden_volume(views: np.ndarray, warper, reference: int, disparity: np.ndarray, index: np.ndarray,
                   *, guide: np.ndarray | None = None, gains: np.ndarray | None = None,
-                  zbuffers: list[np.ndarray] | None = None) -> np.ndarray:
+                  zbuffers: list[np.ndarray] | None = None, out: np.ndarray | None = None,
+                  planes: np.ndarray | None = None) -> np.ndarray:
     """(D, H, W, 4) premultiplied: opaque cells behind the front surface, coloured by the views that see them.
 
     Parameters
@@ -107,14 +130,19 @@ def hidden_volume(views: np.ndarray, warper, reference: int, disparity: np.ndarr
         Colour gains of the views (:func:`view_gains`); the colours they give are multiplied by them.
     zbuffers : list of ndarray of shape (H, W), optional
         ``disparity``'s z-buffer in each view (:func:`vfxstereo.depth.zbuffer`), made here when not given.
+    out : ndarray of shape (D, H, W, 4), optional
+        Write the hidden cells into this volume (the front surface's, :func:`front_volume`: they lie strictly
+        behind its cells) and return it, instead of a new one. Only planes that hold hidden cells get
+        working buffers. It may hold a subset ``planes`` of the planes (see :func:`slots`).
+    planes : ndarray of int, optional
+        The planes ``out`` holds (default all).
     """
     from vfxstereo.depth import fill_unreliable, zbuffer
     from vfxstereo.matching import grey
 
     K, h, w = views.shape[:3]
     D = warper.D
-    total = np.zeros((D, h, w, 3), np.float32)
-    weight = np.zeros((D, h, w), np.float32)
+    sums: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # plane -> (colour total, weight)
     for k in range(K):
         if k == reference:
             continue
@@ -131,11 +159,19 @@ def hidden_volume(views: np.ndarray, warper, reference: int, disparity: np.ndarr
             if not (wt > MIN_WEIGHT).any():
                 continue
             g = 1.0 if gains is None else gains[k]
-            total[i] += warper.to_plane(views[k] * m[..., None], k, int(i)) * g
-            weight[i] += wt
-    n = np.maximum(weight, 1e-6)
-    keep = (weight > MIN_WEIGHT) & (np.arange(D)[:, None, None] < index[None])
-    vol = np.zeros((D, h, w, 4), np.float32)
-    vol[..., :3] = np.where(keep[..., None], total / n[..., None], 0.0)
-    vol[..., 3] = keep
+            if int(i) not in sums:
+                sums[int(i)] = (np.zeros((h, w, 3), np.float32), np.zeros((h, w), np.float32))
+            total, weight = sums[int(i)]
+            total += warper.to_plane(views[k] * m[..., None], k, int(i)) * g
+            weight += wt
+    slot = slots(planes, D)
+    vol = np.zeros((D if planes is None else len(planes), h, w, 4), np.float32) if out is None else out
+    for i, (total, weight) in sums.items():
+        keep = (weight > MIN_WEIGHT) & (i < index)
+        if slot[i] < 0:  # hidden cells lie on planes of the depth map; a volume without them is a caller's bug
+            if keep.any():
+                raise VfxStereoError(f"hidden_volume: plane {i} holds hidden cells but the volume does not hold it")
+            continue
+        vol[slot[i], keep, :3] = total[keep] / weight[keep, None]
+        vol[slot[i], keep, 3] = 1.0
     return vol

@@ -146,13 +146,15 @@ class SoftEdges:
 def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, disparity: np.ndarray,
                  index: np.ndarray, *, params: SoftEdgeParams | None = None, tolerance: float | None = None,
                  gains: np.ndarray | None = None, zbuffers: list[np.ndarray] | None = None,
-                 progress: Progress | None = None) -> tuple[np.ndarray, SoftEdges]:
+                 progress: Progress | None = None, inplace: bool = False,
+                 planes: np.ndarray | None = None) -> tuple[np.ndarray, SoftEdges]:
     """Soft alpha along the depth edges of ``volume`` (see the module docstring).
 
     Parameters
     ----------
     volume : ndarray of shape (D, H, W, 4)
-        Premultiplied 0/1 volume (front surface and hidden cells, :mod:`vfxstereo.layers`); not modified.
+        Premultiplied 0/1 volume (front surface and hidden cells, :mod:`vfxstereo.layers`); not modified
+        unless ``inplace``.
     views : ndarray of shape (K, H, W, 3)
     warper : vfxstereo.warp.Warper
     reference : int
@@ -164,6 +166,11 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
         Colour gains of the views (:func:`vfxstereo.layers.view_gains`).
     zbuffers : list of ndarray of shape (H, W), optional
         ``disparity``'s z-buffer in each view (:func:`vfxstereo.depth.zbuffer`), made here when not given.
+    inplace : bool
+        Write the soft edges into ``volume`` itself (saves a copy of the volume).
+    planes : ndarray of int, optional
+        The planes ``volume`` holds, when not all of ``warper``'s (:func:`vfxstereo.layers.slots`); they must
+        include every plane of ``index`` (the edges' front and back surfaces lie on them).
 
     Returns
     -------
@@ -172,9 +179,14 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     from vfxstereo import _edge_kernels
     from vfxstereo.depth import zbuffer
 
+    from vfxstereo.layers import slots
+
     p = params or SoftEdgeParams()
-    D, h, w = volume.shape[:3]
+    h, w = volume.shape[1:3]
     d = warper.disparities
+    D = len(d)
+    held = np.arange(D) if planes is None else np.asarray(planes, np.int64)
+    slot = slots(planes, D)
     step = float(np.median(np.diff(d))) if D > 1 else 1.0
     tol = 2.0 * step if tolerance is None else float(tolerance)
     jump = max(1, int(np.ceil(p.jump / step - 1e-9)))
@@ -184,7 +196,7 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     far_side = fmax - index >= jump
     near_side = ~far_side & (index - fmin >= jump)
     band = far_side | near_side
-    out = volume.copy()
+    out = volume if inplace else volume.copy()
     info = SoftEdges(band=band, alpha=np.full((h, w), np.nan, np.float32), front=np.full((h, w), -1, np.int32),
                      back=np.full((h, w), -1, np.int32), confidence=np.zeros((h, w), np.float32))
     if not band.any():
@@ -192,8 +204,9 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     f_plane = np.where(far_side, fmax, index).astype(np.int32)
     # back plane of a near-side pixel: its nearest hidden cell behind it, else the farthest surface around
     hidden = volume[..., 3] > 0.5
-    hidden &= np.arange(D)[:, None, None] < index[None]
-    nearest_hidden = np.where(hidden.any(axis=0), D - 1 - np.argmax(hidden[::-1], axis=0), -1)
+    hidden &= held[:, None, None] < index[None]
+    nearest_hidden = np.where(hidden.any(axis=0), held[len(held) - 1 - np.argmax(hidden[::-1], axis=0)], -1)
+    del hidden
     b_plane = np.where(far_side, index, np.where(nearest_hidden >= 0, nearest_hidden, fmin)).astype(np.int32)
     ys, xs = np.nonzero(band)
     f, b = f_plane[ys, xs], b_plane[ys, xs]
@@ -259,14 +272,15 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     C = np.clip(plate[ys, xs] - (1.0 - alpha)[:, None] * B0, 0.0, None)
     white = max(1.0, float(plate.max()))
     C = np.minimum(C, white * alpha[:, None])
-    planes = np.arange(D)[:, None]
-    between = (planes > b[None]) & (planes < f[None])  # (D, N) cleared
-    cols = out[:, ys, xs]  # (D, N, 4)
+    between = (held[:, None] > b[None]) & (held[:, None] < f[None])  # (layers, N) cleared
+    cols = out[:, ys, xs]  # (layers, N, 4)
     cols[between] = 0.0
-    cols[f, np.arange(N), :3] = C
-    cols[f, np.arange(N), 3] = alpha
-    cols[b, np.arange(N), :3] = B0
-    cols[b, np.arange(N), 3] = 1.0
+    if (slot[f] < 0).any() or (slot[b] < 0).any():
+        raise VfxStereoError("soften_edges: an edge lies on a plane the volume does not hold")
+    cols[slot[f], np.arange(N), :3] = C
+    cols[slot[f], np.arange(N), 3] = alpha
+    cols[slot[b], np.arange(N), :3] = B0
+    cols[slot[b], np.arange(N), 3] = 1.0
     out[:, ys, xs] = cols
     info.alpha[ys, xs] = alpha
     info.front[ys, xs] = f

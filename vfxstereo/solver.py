@@ -41,17 +41,33 @@ from vfxstereo.warp import Warper
 # RGBA layer stack during refinement (1 + 4 float32 per view).
 _BYTES_PER_CELL = 4 * 32
 _BYTES_PER_CELL_PER_VIEW = 4 * 5
-# The robust path (depth="robust"): the depth stage's cost sum, view count, combined and windowed costs and SGM
-# sums (about 5 float32 per cell), then the front, hidden, initial and soft-edged RGBA volumes (4 x 16 bytes).
-# Measured: 76 bytes per cell at 640x480, 64 planes, K = 5 (peak RSS of the solve less what was resident).
-_ROBUST_BYTES_PER_CELL = 84
+# The robust path (depth="robust"), in two phases that do not overlap. The depth stage holds its cost volumes
+# (depth.DEPTH_BYTES_PER_CELL per cell of the strip it solves, at most DepthConfig.strip_memory GiB: see
+# depth.strip_plan); then the layers are built in place in the stack's one RGBA volume (16 bytes per cell of the
+# planes it holds) with per-plane working images for the planes that hold hidden cells or soft-edge
+# backgrounds and the soft edges' masks (14 more, measured). Per pixel and view, both phases hold the views
+# and what is made from them (matching images, z-buffers: 32 bytes, measured). Measured against tracemalloc's
+# peak in tests/test_solver.py (within 15 % at 240x136, 24 planes, K = 5, with and without empty planes).
+_ROBUST_STACK_BYTES_PER_CELL = 16 + 14
+_ROBUST_BYTES_PER_PIXEL_PER_VIEW = 32
 
 
-def memory_needed(shape: tuple[int, int], n_planes: int, n_views: int, *, depth: str = "robust") -> int:
-    """Estimated peak bytes of :func:`solve` for views of ``shape`` (H, W) with the ``depth`` method."""
-    cells = int(shape[0]) * int(shape[1]) * int(n_planes)
+def memory_needed(shape: tuple[int, int], n_planes: int, n_views: int, *, depth: str = "robust",
+                  strip_memory: float | None = None, layers: int | None = None) -> int:
+    """Estimated peak bytes of :func:`solve` for views of ``shape`` (H, W) with the ``depth`` method.
+
+    Robust depth: ``strip_memory`` (GiB, default :class:`~vfxstereo.depth.DepthConfig`'s) bounds the depth
+    stage's volumes; ``layers`` is the number of planes the stack holds (default all ``n_planes``).
+    """
+    pixels = int(shape[0]) * int(shape[1])
+    cells = pixels * int(n_planes)
     if depth == "robust":
-        return cells * _ROBUST_BYTES_PER_CELL
+        from vfxstereo.depth import DEPTH_BYTES_PER_CELL, DepthConfig
+
+        budget = (DepthConfig().strip_memory if strip_memory is None else strip_memory) * 2**30
+        depth_stage = min(cells * DEPTH_BYTES_PER_CELL, budget)
+        stack = pixels * (n_planes if layers is None else int(layers)) * _ROBUST_STACK_BYTES_PER_CELL
+        return int(pixels * n_views * _ROBUST_BYTES_PER_PIXEL_PER_VIEW + max(depth_stage, stack))
     return cells * (_BYTES_PER_CELL + _BYTES_PER_CELL_PER_VIEW * int(n_views))
 
 
@@ -69,9 +85,11 @@ def available_memory() -> int:
     return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
 
 
-def check_memory(shape: tuple[int, int], n_planes: int, n_views: int, *, depth: str = "robust") -> None:
-    """Raise VfxStereoError, saying how much is needed, when a solve cannot fit in memory."""
-    need = memory_needed(shape, n_planes, n_views, depth=depth)
+def check_memory(shape: tuple[int, int], n_planes: int, n_views: int, *, depth: str = "robust",
+                 strip_memory: float | None = None, layers: int | None = None) -> None:
+    """Raise VfxStereoError, saying how much is needed, when a solve cannot fit in memory
+    (:func:`memory_needed`'s arguments)."""
+    need = memory_needed(shape, n_planes, n_views, depth=depth, strip_memory=strip_memory, layers=layers)
     have = available_memory()
     if need > 0.8 * have:
         raise VfxStereoError(
@@ -90,8 +108,9 @@ class SolveResult:
     """(H, W) float32 sub-pixel disparity of the reference camera (NaN where undecided)."""
     winners: np.ndarray
     """(H, W) int index of the front plane of the last selection (-1 = undecided)."""
-    initial: np.ndarray
-    """(D, H, W, 4) the refinement's start: the selected volume after completion (premultiplied)."""
+    initial: np.ndarray | None
+    """(D, H, W, 4) the refinement's start: the selected volume after completion (premultiplied). Robust depth:
+    the volume before the soft edges, kept only with ``keep_initial`` (else None)."""
     selected: np.ndarray | None = None
     """(D, H, W, 4) the volume as the last selection made it (front and hidden cells, opacity 0/1)."""
     hidden: np.ndarray | None = None
@@ -154,7 +173,8 @@ def border_weights(warper: Warper) -> np.ndarray:
 
 
 def solve(views, *, positions=None, reference: int | None = None, disparities, config: SolveConfig | None = None,
-          progress: Progress | None = None, camera: Camera | None = None, return_details: bool = False):
+          progress: Progress | None = None, camera: Camera | None = None, return_details: bool = False,
+          keep_initial: bool = False):
     """Recover a stack of premultiplied RGBA layers from K views (Szeliski & Golland 1999, all stages).
 
     Parameters
@@ -178,6 +198,9 @@ def solve(views, *, positions=None, reference: int | None = None, disparities, c
     return_details : bool
         Return a :class:`SolveResult` (stack, sub-pixel disparity, front and hidden winners, selected and
         initial volumes, timings).
+    keep_initial : bool
+        Robust depth: keep the volume before the soft edges in ``SolveResult.initial`` (a copy of the stack's
+        size; without it ``initial`` is None and the soft edges are written in place).
 
     Returns
     -------
@@ -196,7 +219,10 @@ def solve(views, *, positions=None, reference: int | None = None, disparities, c
         camera = Camera.from_positions(pos, reference)
     elif camera.K != n_views:
         raise VfxStereoError(f"the camera describes {camera.K} views, but {n_views} were given")
-    check_memory((h, w), len(disparities), n_views, depth=config.depth)
+    robust = config.depth == "robust"
+    check_memory((h, w), len(disparities), n_views, depth=config.depth,
+                 strip_memory=config.depth_config.strip_memory if robust else None,
+                 layers=1 if robust and not config.keep_empty_planes else None)  # the layers are checked again
     warper = Warper(camera, disparities, (h, w))
     ref = views[_reference_index(camera)]
     ref_view = camera.reference_index  # the view the virtual camera is, if any
@@ -211,7 +237,8 @@ def solve(views, *, positions=None, reference: int | None = None, disparities, c
 
     if config.depth == "robust":
         return _solve_robust(views, warper, camera, disparities, config, progress=progress, white=white,
-                             timed=timed, timings=timings, return_details=return_details)
+                             timed=timed, timings=timings, return_details=return_details,
+                             keep_initial=keep_initial)
     if config.depth != "variance":
         raise VfxStereoError(f"unknown depth method {config.depth!r}; choose 'variance' or 'robust'")
     agg_settings = ({"a": config.a, "b": config.b, "c": config.c, "sigma_max": config.sigma_max,
@@ -301,7 +328,8 @@ def solve(views, *, positions=None, reference: int | None = None, disparities, c
                        hidden=hidden, timings=timings)
 
 
-def _solve_robust(views, warper, camera, disparities, config, *, progress, white, timed, timings, return_details):
+def _solve_robust(views, warper, camera, disparities, config, *, progress, white, timed, timings, return_details,
+                  keep_initial):
     """``solve`` with the robust depth stage (:mod:`vfxstereo.depth`) in place of the paper's sections 4-5.
 
     depth -> initial volume (front surface and hidden layers, :mod:`vfxstereo.layers`) -> refinement (Eqs.
@@ -319,19 +347,30 @@ def _solve_robust(views, warper, camera, disparities, config, *, progress, white
     for name, seconds in res.timings.items():
         timings[f"depth.{name}"] = seconds
     index = res.index
+    planes = None  # all
+    if not config.keep_empty_planes and config.refine_iterations == 0 and not config.edge_matting:
+        planes = np.unique(index[index >= 0])  # hidden cells and soft edges lie on the depth map's planes too
+    n_layers = len(disparities) if planes is None else len(planes)
+    check_memory(views.shape[1:3], len(disparities), views.shape[0], depth="robust",
+                 strip_memory=config.depth_config.strip_memory, layers=n_layers)
     zbuffers = [depth.zbuffer(warper, res.disparity, k) for k in range(views.shape[0])]  # hidden layers, edges
     gains = timed("layers", layers.view_gains, views, warper, ref_view, res.disparity)
-    front = timed("layers", layers.front_volume, index, plate, len(disparities))
-    hidden = timed("layers", layers.hidden_volume, views, warper, ref_view, res.disparity, index, gains=gains,
-                   zbuffers=zbuffers)
+    initial = timed("layers", layers.front_volume, index, plate, len(disparities), planes=planes)
+    timed("layers", layers.hidden_volume, views, warper, ref_view, res.disparity, index, gains=gains,
+          zbuffers=zbuffers, out=initial, planes=planes)  # disjoint: hidden cells lie behind the front ones
     report(progress, "layers", 1, 1)
-    initial = layers.clamp(front + hidden, white)  # disjoint: hidden cells lie strictly behind the front ones
+    layers.clamp(initial, white)
+    hidden_cells = int(sum(((layer[..., 3] > 0) & (i < index)).sum() for i, layer in
+                           zip(np.arange(len(disparities)) if planes is None else planes, initial)))
     rgba = initial
+    refining = config.refine_iterations > 0 and any(config.lambdas)  # it starts from the volume before soft edges
+    in_place = config.soft_edges and not (keep_initial or refining)
     if config.soft_edges:
         from vfxstereo import softedge
 
         rgba, _ = timed("soft-edges", softedge.soften_edges, rgba, views, warper, ref_view, res.disparity, index,
-                        params=config.soft_edge, gains=gains, zbuffers=zbuffers, progress=progress)
+                        params=config.soft_edge, gains=gains, zbuffers=zbuffers, progress=progress,
+                        inplace=in_place, planes=planes)
         layers.clamp(rgba, white)
     if config.refine_iterations > 0 and any(config.lambdas):
         rgba = timed("refine", refine.refine, initial, disparities, views, warper,
@@ -341,13 +380,14 @@ def _solve_robust(views, warper, camera, disparities, config, *, progress, white
 
         rgba = timed("matting", matting.matte_edges, rgba, disparities, views, warper, white=white,
                      progress=progress)
-    stack = LayerStack(rgba, disparities, camera, metadata={
+    stack = LayerStack(rgba, disparities if planes is None else disparities[planes], camera, metadata={
         "solver": "vfxstereo-robust",
         "settings": config.to_dict(),
-        "hidden_cells": int((hidden[..., 3] > 0).sum()),
+        "hidden_cells": hidden_cells,
         "colorspace": "scene-linear Rec.709",
     }, white=white, plate=plate)
     if not return_details:
         return stack
+    initial = None if in_place else initial
     return SolveResult(stack=stack, disparity=res.disparity, winners=index, initial=initial, selected=initial,
                        hidden=None, timings=timings)

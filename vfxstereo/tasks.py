@@ -123,6 +123,8 @@ class SolveTask:
         OCIO colour space of the plates (None: by file type).
     previews : str or None
         Folder for PNG previews (contact sheet, disparity, flattened stack).
+    drop_empty_planes : bool
+        Keep only the planes that hold something (``SolveConfig.keep_empty_planes = False``).
     """
 
     preset: str = DEFAULT_PRESET
@@ -133,14 +135,21 @@ class SolveTask:
     camera: Any = None
     input_colorspace: str | None = None
     previews: str | None = None
+    drop_empty_planes: bool = False
+
+    def config(self):
+        """The solver's settings: the preset, with ``drop_empty_planes``."""
+        from vfxstereo.config import SolveConfig
+
+        config = SolveConfig.preset(self.preset)
+        return config.replace(keep_empty_planes=False) if self.drop_empty_planes else config
 
     def check(self, job: Job) -> None:
         """Before any work: the frame's views, from their headers, against positions, cameras and memory."""
         from vfxstereo import solver
-        from vfxstereo.config import SolveConfig
         from vfxstereo.io import plates
 
-        SolveConfig.preset(self.preset)
+        config = self.config()
         first = job.inputs["views"]
         if len(first) == 1:  # one multi-view EXR per frame
             layout = plates.describe_plate(first[0])
@@ -156,15 +165,17 @@ class SolveTask:
         if self.camera is not None and self.camera.K != k:
             raise VfxStereoError(f"--cameras describes {self.camera.K} cameras for {k} views")
         d = len(self.disparities) if self.disparities is not None else len(default_disparities(w))
-        solver.check_memory((h, w), d, k, depth=SolveConfig.preset(self.preset).depth)
+        robust = config.depth == "robust"
+        solver.check_memory((h, w), d, k, depth=config.depth,
+                            strip_memory=config.depth_config.strip_memory if robust else None,
+                            layers=1 if robust and not config.keep_empty_planes else None)
 
     def __call__(self, job: Job, progress: Progress | None = None) -> None:
         """Solve the frame of ``job`` and write its outputs."""
         from vfxstereo import solver
-        from vfxstereo.config import SolveConfig
         from vfxstereo.io import exr, plates, preview
 
-        config = SolveConfig.preset(self.preset)
+        config = self.config()
         view_set = plates.read_view_set(job.inputs["views"],
                                         views=None if self.view_names is None else list(self.view_names),
                                         colorspace=self.input_colorspace)
