@@ -232,7 +232,8 @@ def run_case(width: int, height: int, planes: int, *, preset: str | None = None,
     result["seconds"] = time.perf_counter() - t0
     result["timings"] = dict(solved.timings)
     result["layers"] = solved.stack.depth
-    result["estimate"] = solver.memory_needed((height, width), planes, views, **{**memory, "layers": solved.stack.depth})
+    memory["layers"] = solved.stack.depth
+    result["estimate"] = solver.memory_needed((height, width), planes, views, **memory)
     result["peak"] = _status_bytes("VmHWM")
     result["maxrss"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024  # KiB on Linux
     result["good"] = float(np.mean(np.abs(solved.disparity - truth) <= 1.0))

@@ -308,13 +308,15 @@ K = 5)."""
 
 
 def strips(h: int, rows: int, margin: int) -> list[tuple[int, int, int, int]]:
-    """Horizontal strips ``(y0, y1, p0, p1)`` of an image ``h`` rows high: rows ``[y0, y1)`` are kept from a
-    solve of rows ``[p0, p1)``, which add up to ``margin`` rows of context on each side. The strips are of
-    equal height (to a row), at most ``rows`` each, and cover the image once."""
+    """Horizontal strips ``(y0, y1, p0, p1)`` of an image ``h`` rows high.
+
+    Rows ``[y0, y1)`` are kept from a solve of rows ``[p0, p1)``, which add up to ``margin`` rows of context on
+    each side. The strips are of equal height (to a row), at most ``rows`` each, and cover the image once.
+    """
     n = max(1, -(-int(h) // max(1, int(rows))))
     bounds = np.linspace(0, h, n + 1).round().astype(int)
     return [(int(a), int(b), max(0, int(a) - margin), min(int(h), int(b) + margin))
-            for a, b in zip(bounds[:-1], bounds[1:])]
+            for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
 
 
 def strip_plan(warper, config: DepthConfig) -> list[tuple[int, int, int, int]]:

@@ -178,7 +178,6 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     """
     from vfxstereo import _edge_kernels
     from vfxstereo.depth import zbuffer
-
     from vfxstereo.layers import slots
 
     p = params or SoftEdgeParams()

@@ -87,8 +87,10 @@ def available_memory() -> int:
 
 def check_memory(shape: tuple[int, int], n_planes: int, n_views: int, *, depth: str = "robust",
                  strip_memory: float | None = None, layers: int | None = None) -> None:
-    """Raise VfxStereoError, saying how much is needed, when a solve cannot fit in memory
-    (:func:`memory_needed`'s arguments)."""
+    """Raise VfxStereoError, saying how much is needed, when a solve cannot fit in memory.
+
+    The arguments are :func:`memory_needed`'s.
+    """
     need = memory_needed(shape, n_planes, n_views, depth=depth, strip_memory=strip_memory, layers=layers)
     have = available_memory()
     if need > 0.8 * have:
@@ -361,7 +363,7 @@ def _solve_robust(views, warper, camera, disparities, config, *, progress, white
     report(progress, "layers", 1, 1)
     layers.clamp(initial, white)
     hidden_cells = int(sum(((layer[..., 3] > 0) & (i < index)).sum() for i, layer in
-                           zip(np.arange(len(disparities)) if planes is None else planes, initial)))
+                           zip(np.arange(len(disparities)) if planes is None else planes, initial, strict=True)))
     rgba = initial
     refining = config.refine_iterations > 0 and any(config.lambdas)  # it starts from the volume before soft edges
     in_place = config.soft_edges and not (keep_initial or refining)
