@@ -161,3 +161,14 @@ def test_strips_match_the_whole_solve_on_a_layered_plate():
     from vfxstereo.layers import plane_index
 
     np.testing.assert_array_equal(strips.index, plane_index(strips.disparity, warper.disparities))
+
+
+def test_the_box_filter_kernel_is_scipys_uniform_filter(rng):
+    from scipy import ndimage
+
+    cost = rng.uniform(0, 2, (23, 31, 7)).astype(np.float32)
+    for size in (3, 5, 7):
+        ref = ndimage.uniform_filter(cost.astype(np.float64), size=(size, size, 1), mode="nearest")
+        np.testing.assert_allclose(depth.box_filter(cost, size), ref, rtol=0, atol=2e-6)
+        out = np.empty_like(cost)
+        assert depth.box_filter(cost, size, out=out) is out

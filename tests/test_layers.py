@@ -54,10 +54,16 @@ def test_view_gains_recover_the_exposure_of_each_view():
     np.testing.assert_allclose(got[:, 1], gains, rtol=1e-3)
 
 
-def test_clamp_keeps_colour_within_white_times_alpha():
+def test_clamp_keeps_colour_within_white_times_alpha(rng):
     rgba = np.array([[[1.5, -0.1, 0.4, 0.5]]], np.float32)
     layers.clamp(rgba, 1.0)
     np.testing.assert_allclose(rgba[0, 0], [0.5, 0.0, 0.4, 0.5])
+    vol = rng.uniform(-1, 3, (3, 5, 6, 4)).astype(np.float32)  # the kernel (contiguous) and numpy paths agree
+    vol[..., 3] = rng.uniform(0, 1, (3, 5, 6))
+    ref = np.concatenate([np.clip(vol[..., :3], 0.0, 2.0 * vol[..., 3:]), vol[..., 3:]], axis=-1)
+    strided = np.array(vol.transpose(0, 2, 1, 3)).transpose(0, 2, 1, 3)  # not C-contiguous
+    np.testing.assert_array_equal(layers.clamp(vol.copy(), 2.0), ref)
+    np.testing.assert_array_equal(layers.clamp(strided, 2.0), ref)
 
 
 @pytest.mark.parametrize("general", [False, True])

@@ -70,13 +70,18 @@ def _cell_cost(cref, vref, cview, vview, y, x, u, v, H, W, rho_census, rho_ad):
     code = cref[y, x]
     C = vref.shape[2]
     ad = 0.0
-    cen = (1.0 - fu) * rho_census[popcount(code ^ cview[v0, u0])] + fu * rho_census[popcount(code ^ cview[v0, u1])]
+    if fu == 0.0:  # a whole-pixel shift (the common case): one census tap
+        cen = rho_census[popcount(code ^ cview[v0, u0])]
+    else:
+        cen = (1.0 - fu) * rho_census[popcount(code ^ cview[v0, u0])] + fu * rho_census[popcount(code ^ cview[v0, u1])]
     if fv == 0.0:
         for ch in range(C):
             ad += abs((1.0 - fu) * vview[v0, u0, ch] + fu * vview[v0, u1, ch] - vref[y, x, ch])
     else:
-        cen = (1.0 - fv) * cen + fv * ((1.0 - fu) * rho_census[popcount(code ^ cview[v1, u0])]
-                                       + fu * rho_census[popcount(code ^ cview[v1, u1])])
+        low = rho_census[popcount(code ^ cview[v1, u0])]
+        if fu != 0.0:
+            low = (1.0 - fu) * low + fu * rho_census[popcount(code ^ cview[v1, u1])]
+        cen = (1.0 - fv) * cen + fv * low
         for ch in range(C):
             s = ((1.0 - fv) * ((1.0 - fu) * vview[v0, u0, ch] + fu * vview[v0, u1, ch])
                  + fv * ((1.0 - fu) * vview[v1, u0, ch] + fu * vview[v1, u1, ch]))
@@ -169,33 +174,29 @@ def zbuffer(u, v, disparity, out):
 # Semi-global matching (Hirschmueller 2008): one path direction, added into S
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, parallel=True, nogil=True)
 def sgm_path(C, guide, P1, P2, sigma, dy, dx, S):
     """Add the path costs L_r of direction r = (dy, dx) to ``S`` (both (H, W, D) float32).
 
     ``L_r(p, d) = C(p, d) + min(L_r(p-r, d), L_r(p-r, d+-1) + P1, min_k L_r(p-r, k) + P2') - min_k L_r(p-r, k)``
     with the edge-adapted ``P2' = max(P2 / (1 + |I(p) - I(p-r)| / sigma), P1)``. Paths start afresh at the
-    frame edge. ``dy`` is 0 or +-1, ``dx`` is -1, 0 or 1.
+    frame edge. ``dy`` is 0 or +-1, ``dx`` is -1, 0 or 1. Parallel over the rows of a horizontal path and over
+    the pixels of a row otherwise (each reads only the previous row).
     """
     H, W, D = C.shape
-    prev = np.zeros((W, D), np.float32)
-    cur = np.zeros((W, D), np.float32)
-    mprev = np.zeros(W, np.float32)
-    mcur = np.zeros(W, np.float32)
-    x0, x1, xs = (0, W, 1) if dx >= 0 else (W - 1, -1, -1)
-    if dy == 0:  # along rows: the previous pixel is on the same row
-        for y in range(H):
-            lp = prev[0]
-            lc = cur[0]
+    if dy == 0:  # along rows: rows are independent
+        for y in prange(H):
+            lp = np.zeros(D, np.float32)
+            lc = np.zeros(D, np.float32)
             mp = np.float32(0.0)
-            started = False
-            for x in range(x0, x1, xs):
+            x0 = 0 if dx >= 0 else W - 1
+            for n in range(W):
+                x = x0 + n * dx
                 m = np.float32(np.inf)
-                if not started:
+                if n == 0:
                     for d in range(D):
                         lc[d] = C[y, x, d]
                         m = min(m, lc[d])
-                    started = True
                 else:
                     g = abs(guide[y, x] - guide[y, x - dx])
                     p2 = max(P2 / (1.0 + g / sigma), P1)
@@ -213,13 +214,17 @@ def sgm_path(C, guide, P1, P2, sigma, dy, dx, S):
                     lp[d] = lc[d]
                 mp = m
         return
-    y0, y1, ys = (0, H, 1) if dy > 0 else (H - 1, -1, -1)
-    first = True
-    for y in range(y0, y1, ys):
-        for x in range(x0, x1, xs):
+    prev = np.zeros((W, D), np.float32)
+    cur = np.zeros((W, D), np.float32)
+    mprev = np.zeros(W, np.float32)
+    mcur = np.zeros(W, np.float32)
+    y0 = 0 if dy > 0 else H - 1
+    for n in range(H):
+        y = y0 + n * dy
+        for x in prange(W):
             px = x - dx
             m = np.float32(np.inf)
-            if first or px < 0 or px >= W:
+            if n == 0 or px < 0 or px >= W:
                 for d in range(D):
                     cur[x, d] = C[y, x, d]
                     m = min(m, cur[x, d])
@@ -239,9 +244,35 @@ def sgm_path(C, guide, P1, P2, sigma, dy, dx, S):
             mcur[x] = m
             for d in range(D):
                 S[y, x, d] += cur[x, d]
-        first = False
         prev, cur = cur, prev
         mprev, mcur = mcur, mprev
+
+
+@njit(cache=True, parallel=True, nogil=True)
+def box_mean(cost, r, out):
+    """``out`` (H, W, D): the mean of ``cost`` over a (2r+1) x (2r+1) window per plane, edges replicated.
+
+    Along columns from ``cost`` into ``out``, then along rows in place (a copy of one row per thread).
+    """
+    H, W, D = cost.shape
+    inv = np.float32(1.0 / (2 * r + 1))
+    for y in prange(H):
+        for x in range(W):
+            for d in range(D):
+                out[y, x, d] = 0.0
+        for j in range(-r, r + 1):
+            yy = min(max(y + j, 0), H - 1)
+            for x in range(W):
+                for d in range(D):
+                    out[y, x, d] += cost[yy, x, d]
+    for y in prange(H):
+        row = out[y].copy()
+        for x in range(W):
+            for d in range(D):
+                acc = np.float32(0.0)
+                for j in range(-r, r + 1):
+                    acc += row[min(max(x + j, 0), W - 1), d]
+                out[y, x, d] = acc * inv * inv
 
 
 # --------------------------------------------------------------------------------------------------------

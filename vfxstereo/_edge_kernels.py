@@ -1,9 +1,24 @@
-"""numba kernel of :mod:`vfxstereo.softedge` (foreground colour samples for the single-view alpha estimate)."""
+"""numba kernels of :mod:`vfxstereo.softedge` (foreground colour samples for the single-view alpha estimate)
+and :mod:`vfxstereo.layers` (clamping a premultiplied volume in one pass)."""
 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
+
+
+@njit(cache=True, parallel=True, nogil=True)
+def clamp_premultiplied(cells, white):
+    """In place, each row (R, G, B, A) of ``cells`` (N, 4): colour into ``[0, white * A]``."""
+    for n in prange(cells.shape[0]):
+        top = white * cells[n, 3]
+        for c in range(3):
+            v = cells[n, c]
+            if v < 0.0:
+                v = 0.0
+            if v > top:
+                v = top
+            cells[n, c] = v
 
 
 @njit(cache=True, nogil=True)

@@ -136,9 +136,19 @@ class DepthResult:
 
 
 def box_filter(cost: np.ndarray, size: int, *, out: np.ndarray | None = None) -> np.ndarray:
-    """Mean over a ``size`` x ``size`` window per plane (edges replicated), into ``out`` when given."""
+    """Mean over a ``size`` x ``size`` window per plane (edges replicated), into ``out`` when given.
+
+    An odd ``size`` on an (H, W, D) float32 volume runs as a parallel numba kernel (``scipy.ndimage.
+    uniform_filter`` is its reference in the tests); anything else through scipy.
+    """
     if size <= 1:
         return cost
+    if size % 2 == 1 and cost.dtype == np.float32 and cost.ndim == 3 and cost.flags.c_contiguous:
+        from vfxstereo import _depth_kernels
+
+        out = np.empty_like(cost) if out is None else out
+        _depth_kernels.box_mean(cost, size // 2, out)
+        return out
     from scipy import ndimage
 
     return ndimage.uniform_filter(cost, size=(size, size, 1), mode="nearest", output=out)

@@ -58,6 +58,11 @@ def clamp(rgba: np.ndarray, white: float) -> np.ndarray:
 
     Colours carried from other views through their gains can overshoot the reference's white.
     """
+    if rgba.flags.c_contiguous and rgba.dtype == np.float32:  # one parallel pass, no temporaries
+        from vfxstereo._edge_kernels import clamp_premultiplied
+
+        clamp_premultiplied(rgba.reshape(-1, 4), np.float32(white))
+        return rgba
     for layer in (rgba if rgba.ndim == 4 else rgba[None]):  # a layer at a time: no volume-sized temporary
         np.clip(layer[..., :3], 0.0, None, out=layer[..., :3])
         np.minimum(layer[..., :3], np.float32(white) * layer[..., 3:4], out=layer[..., :3])

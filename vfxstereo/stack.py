@@ -31,6 +31,25 @@ from vfxstereo.geometry import Camera, plane_to_view
 TOLERANCE = 2e-3
 
 
+def _layer_checks(rgba: np.ndarray, white: float) -> tuple[int, float, float, float, float]:
+    """Checks of a (D, H, W, 4) stack, a layer at a time (no stack-sized temporaries).
+
+    Returns the number of non-finite values, alpha's least and largest, colour's least, and the most colour
+    exceeds ``white`` times alpha.
+    """
+    bad, a_min, a_max, c_min, excess = 0, np.inf, -np.inf, np.inf, -np.inf
+    for layer in rgba:
+        finite = np.isfinite(layer)
+        if not finite.all():
+            bad += int(np.count_nonzero(~finite))
+            continue
+        alpha, rgb = layer[..., 3], layer[..., :3]
+        a_min, a_max = min(a_min, float(alpha.min())), max(a_max, float(alpha.max()))
+        c_min = min(c_min, float(rgb.min()))
+        excess = max(excess, float((rgb - white * alpha[..., None]).max()))
+    return bad, a_min, a_max, c_min, excess
+
+
 def over(fg: np.ndarray, bg: np.ndarray) -> np.ndarray:
     """Porter-Duff over of premultiplied RGBA: ``fg + (1 - fg.a) * bg`` (Section 5, the over operator)."""
     return fg + (1.0 - fg[..., 3:4]) * bg
@@ -102,19 +121,16 @@ class LayerStack:
             raise VfxStereoError("disparities must be finite")
         if disp.size > 1 and not np.all(np.diff(disp) > 0):
             raise VfxStereoError("disparities must be strictly increasing (the last layer is nearest)")
-        if not np.all(np.isfinite(rgba)):
-            bad = int(np.count_nonzero(~np.isfinite(rgba)))
-            raise VfxStereoError(f"layer stack holds {bad} NaN or infinite values")
-        alpha = rgba[..., 3]
-        if alpha.min() < -TOLERANCE or alpha.max() > 1 + TOLERANCE:
-            raise VfxStereoError(f"alpha must lie in [0, 1], found [{alpha.min():.4g}, {alpha.max():.4g}]")
         white = float(self.white)
         if not (np.isfinite(white) and white > 0):
             raise VfxStereoError(f"white must be a positive number, got {self.white}")
-        rgb = rgba[..., :3]
-        if rgb.min() < -TOLERANCE:
-            raise VfxStereoError(f"premultiplied colour must not be negative, found {rgb.min():.4g}")
-        excess = float((rgb - white * alpha[..., None]).max())
+        bad, a_min, a_max, c_min, excess = _layer_checks(rgba, white)
+        if bad:
+            raise VfxStereoError(f"layer stack holds {bad} NaN or infinite values")
+        if a_min < -TOLERANCE or a_max > 1 + TOLERANCE:
+            raise VfxStereoError(f"alpha must lie in [0, 1], found [{a_min:.4g}, {a_max:.4g}]")
+        if c_min < -TOLERANCE:
+            raise VfxStereoError(f"premultiplied colour must not be negative, found {c_min:.4g}")
         if excess > TOLERANCE * max(1.0, white):
             raise VfxStereoError(
                 f"premultiplied colour exceeds alpha by {excess:.4g}: the layers are not premultiplied "
