@@ -1,5 +1,7 @@
-"""numba kernels of :mod:`vfxstereo.softedge` (foreground colour samples for the single-view alpha estimate)
-and :mod:`vfxstereo.layers` (clamping a premultiplied volume in one pass)."""
+"""numba kernels of :mod:`vfxstereo.softedge` and :mod:`vfxstereo.layers`.
+
+Foreground colour samples for the single-view alpha estimate; clamping a premultiplied volume in one pass.
+"""
 
 from __future__ import annotations
 
