@@ -369,7 +369,7 @@ def test_the_memory_check_refuses_a_robust_solve_that_cannot_fit():
     assert stack < need < stack * 1.1
     assert solver.memory_needed((2160, 4096), 128, 5, depth="variance") > 4 * need
     small = solver.memory_needed((2160, 4096), 128, 5, depth="robust", layers=8)  # empty planes dropped
-    assert small < 0.2 * need
+    assert small < 0.25 * need
     # the strips bound the depth stage: more planes without more layers only cost the strip budget
     assert solver.memory_needed((2160, 4096), 1024, 5, layers=8) == small
     with pytest.raises(VfxStereoError, match="GiB"):

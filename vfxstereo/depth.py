@@ -97,10 +97,13 @@ class DepthConfig:
     flat_texture: float | None = None
     """Local grey-level deviation (8-bit units, 9 x 9 window) below which a pixel counts as plain: the bias weight
     is also multiplied by ``exp(-deviation / flat_texture)``; None: the cost gap alone decides."""
-    strip_memory: float = 2.0
+    strip_memory: float = 6.0
     """GiB the stage's cost volumes may take at once. A plate whose volumes need more is solved in horizontal
     strips (:func:`strips`), each with ``strip_margin`` rows of context above and below that are solved and
-    thrown away; rectified rigs only (a general camera is solved whole)."""
+    thrown away; rectified rigs only (a general camera is solved whole). 6 GiB solves 1920x1080 with up to
+    129 planes whole and 4096x2160 with 129 planes in 6 strips; :func:`vfxstereo.solver.fit_to_memory` lowers
+    it on a machine with less free memory. (2 GiB cut 4096x2160 x 129 planes into 54 strips of 40 rows, each
+    solved with 130 rows of margin: 4x the work.)"""
     strip_margin: int = 64
     """Rows of context on each side of a strip (plus the largest vertical shift of any view). Semi-global
     matching carries costs along whole columns, so strips can differ from the whole solve near their seams

@@ -140,9 +140,10 @@ class SolveTask:
     def config(self):
         """The solver's settings: the preset, with ``drop_empty_planes``."""
         from vfxstereo.config import SolveConfig
+        from vfxstereo.solver import fit_to_memory
 
         config = SolveConfig.preset(self.preset)
-        return config.replace(keep_empty_planes=False) if self.drop_empty_planes else config
+        return fit_to_memory(config.replace(keep_empty_planes=False) if self.drop_empty_planes else config)
 
     def check(self, job: Job) -> None:
         """Before any work: the frame's views, from their headers, against positions, cameras and memory."""
