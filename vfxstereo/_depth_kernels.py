@@ -125,6 +125,65 @@ def accumulate_shift(cref, vref, cview, vview, sx, sy, zbuf, planes, tol, rho_ce
 
 
 @njit(cache=True, parallel=True, nogil=True)
+def revisit_shift(cref, vref, cview, vview, sx, sy, zb_old, zb_new, planes, tol, rho_census, rho_ad, centre,
+                  total, count):
+    """Rectified rigs: change view k's contribution to ``total``/``count`` from what :func:`accumulate_shift`
+    added with z-buffer ``zb_old`` to what it adds with ``zb_new``, touching only the pixels where some cell's
+    visibility in view k differs between the two (near occlusions: a small part of the plate).
+    """
+    H, W = cref.shape
+    D = planes.shape[0]
+    for y in prange(H):
+        buf = np.empty(D, np.float32)
+        old = np.empty(D, np.bool_)
+        new = np.empty(D, np.bool_)
+        for x in range(W):
+            changed = False
+            for i in range(D):
+                u = x - sx[i]
+                v = y - sy[i]
+                if u >= 0.0 and u <= W - 1 and v >= 0.0 and v <= H - 1:
+                    vi = min(int(v + 0.5), H - 1)
+                    ui = min(int(u + 0.5), W - 1)
+                    if (zb_old[vi, ui] <= planes[i] + tol) != (zb_new[vi, ui] <= planes[i] + tol):
+                        changed = True
+                        break
+            if not changed:
+                continue
+            s_old = 0.0
+            n_old = 0
+            s_new = 0.0
+            n_new = 0
+            for i in range(D):
+                u = x - sx[i]
+                v = y - sy[i]
+                c = _cell_cost(cref, vref, cview, vview, y, x, u, v, H, W, rho_census, rho_ad)
+                buf[i] = c
+                old[i] = False
+                new[i] = False
+                if c >= 0.0:
+                    vi = min(int(v + 0.5), H - 1)
+                    ui = min(int(u + 0.5), W - 1)
+                    old[i] = zb_old[vi, ui] <= planes[i] + tol
+                    new[i] = zb_new[vi, ui] <= planes[i] + tol
+                if old[i]:
+                    s_old += c
+                    n_old += 1
+                if new[i]:
+                    s_new += c
+                    n_new += 1
+            m_old = s_old / n_old if centre and n_old > 0 else 0.0
+            m_new = s_new / n_new if centre and n_new > 0 else 0.0
+            for i in range(D):
+                if old[i]:
+                    total[y, x, i] -= buf[i] - m_old
+                    count[y, x, i] -= 1
+                if new[i]:
+                    total[y, x, i] += buf[i] - m_new
+                    count[y, x, i] += 1
+
+
+@njit(cache=True, parallel=True, nogil=True)
 def accumulate_map(cref, vref, cview, vview, umap, vmap, zbuf, plane, tol, rho_census, rho_ad, total, count, i):
     """General cameras: :func:`accumulate_shift` for one plane ``i``.
 
@@ -174,78 +233,66 @@ def zbuffer(u, v, disparity, out):
 # Semi-global matching (Hirschmueller 2008): one path direction, added into S
 
 
+def path_starts(H, W, dy, dx):
+    """The first pixels ``(ys, xs)`` of the paths of direction (dy, dx): those whose predecessor is outside."""
+    ys, xs = [], []
+    if dy != 0:  # every column starts at the top (dy = 1) or bottom row
+        ys += [0 if dy > 0 else H - 1] * W
+        xs += list(range(W))
+    if dx != 0:  # every row starts at the left (dx = 1) or right column, but the one already started
+        rows = [y for y in range(H) if dy == 0 or y != (0 if dy > 0 else H - 1)]
+        ys += rows
+        xs += [0 if dx > 0 else W - 1] * len(rows)
+    return np.array(ys, np.int64), np.array(xs, np.int64)
+
+
 @njit(cache=True, parallel=True, nogil=True)
-def sgm_path(C, guide, P1, P2, sigma, dy, dx, S):
+def sgm_path(C, guide, P1, P2, sigma, dy, dx, S, start_y, start_x):
     """Add the path costs L_r of direction r = (dy, dx) to ``S`` (both (H, W, D) float32).
 
     ``L_r(p, d) = C(p, d) + min(L_r(p-r, d), L_r(p-r, d+-1) + P1, min_k L_r(p-r, k) + P2') - min_k L_r(p-r, k)``
     with the edge-adapted ``P2' = max(P2 / (1 + |I(p) - I(p-r)| / sigma), P1)``. Paths start afresh at the
-    frame edge. ``dy`` is 0 or +-1, ``dx`` is -1, 0 or 1. Parallel over the rows of a horizontal path and over
-    the pixels of a row otherwise (each reads only the previous row).
+    frame edge, at ``(start_y, start_x)`` (:func:`path_starts`); each path is a chain of pixels p, p + r, ...
+    independent of the others, so the paths run in parallel (one parallel region per direction: no barrier
+    per row, which oversubscribed cores turn into waiting).
     """
     H, W, D = C.shape
-    if dy == 0:  # along rows: rows are independent
-        for y in prange(H):
-            lp = np.zeros(D, np.float32)
-            lc = np.zeros(D, np.float32)
-            mp = np.float32(0.0)
-            x0 = 0 if dx >= 0 else W - 1
-            for n in range(W):
-                x = x0 + n * dx
-                m = np.float32(np.inf)
-                if n == 0:
-                    for d in range(D):
-                        lc[d] = C[y, x, d]
-                        m = min(m, lc[d])
-                else:
-                    g = abs(guide[y, x] - guide[y, x - dx])
-                    p2 = max(P2 / (1.0 + g / sigma), P1)
-                    for d in range(D):
-                        best = lp[d]
-                        if d > 0:
-                            best = min(best, lp[d - 1] + P1)
-                        if d < D - 1:
-                            best = min(best, lp[d + 1] + P1)
-                        best = min(best, mp + p2)
-                        lc[d] = C[y, x, d] + best - mp
-                        m = min(m, lc[d])
-                for d in range(D):
-                    S[y, x, d] += lc[d]
-                    lp[d] = lc[d]
-                mp = m
-        return
-    prev = np.zeros((W, D), np.float32)
-    cur = np.zeros((W, D), np.float32)
-    mprev = np.zeros(W, np.float32)
-    mcur = np.zeros(W, np.float32)
-    y0 = 0 if dy > 0 else H - 1
-    for n in range(H):
-        y = y0 + n * dy
-        for x in prange(W):
-            px = x - dx
+    for n in prange(start_y.shape[0]):
+        lp = np.empty(D, np.float32)
+        lc = np.empty(D, np.float32)
+        y = start_y[n]
+        x = start_x[n]
+        m = np.float32(np.inf)
+        for d in range(D):
+            lc[d] = C[y, x, d]
+            m = min(m, lc[d])
+        for d in range(D):
+            S[y, x, d] += lc[d]
+            lp[d] = lc[d]
+        mp = m
+        while True:
+            py = y
+            px = x
+            y += dy
+            x += dx
+            if y < 0 or y >= H or x < 0 or x >= W:
+                break
+            g = abs(guide[y, x] - guide[py, px])
+            p2 = max(P2 / (1.0 + g / sigma), P1)
             m = np.float32(np.inf)
-            if n == 0 or px < 0 or px >= W:
-                for d in range(D):
-                    cur[x, d] = C[y, x, d]
-                    m = min(m, cur[x, d])
-            else:
-                g = abs(guide[y, x] - guide[y - dy, px])
-                p2 = max(P2 / (1.0 + g / sigma), P1)
-                mp = mprev[px]
-                for d in range(D):
-                    best = prev[px, d]
-                    if d > 0:
-                        best = min(best, prev[px, d - 1] + P1)
-                    if d < D - 1:
-                        best = min(best, prev[px, d + 1] + P1)
-                    best = min(best, mp + p2)
-                    cur[x, d] = C[y, x, d] + best - mp
-                    m = min(m, cur[x, d])
-            mcur[x] = m
             for d in range(D):
-                S[y, x, d] += cur[x, d]
-        prev, cur = cur, prev
-        mprev, mcur = mcur, mprev
+                best = lp[d]
+                if d > 0:
+                    best = min(best, lp[d - 1] + P1)
+                if d < D - 1:
+                    best = min(best, lp[d + 1] + P1)
+                best = min(best, mp + p2)
+                lc[d] = C[y, x, d] + best - mp
+                m = min(m, lc[d])
+            for d in range(D):
+                S[y, x, d] += lc[d]
+                lp[d] = lc[d]
+            mp = m
 
 
 @njit(cache=True, parallel=True, nogil=True)

@@ -420,17 +420,26 @@ def _robust_depth(views, warper, reference, config, progress, keep_volume) -> De
     windowed = np.empty((h, w, D), np.float32)
     disparity = None
     passes = config.visibility_passes + 1
+    zbufs: dict[int, np.ndarray | None] = {}  # the z-buffer each view's costs were last accumulated with
     for p in range(passes):
         t0 = time.perf_counter()
-        for sd in sides:
-            total[sd][...] = 0.0
-            count[sd][...] = 0
+        # a later pass changes only the cells whose visibility changed (rectified rigs); else all again
+        revisit = p > 0 and warper.shifts(others[0]) is not None
+        if not revisit:
+            for sd in sides:
+                total[sd][...] = 0.0
+                count[sd][...] = 0
+        tol = config.visibility_tolerance * step
         for n, k in enumerate(others):
             zbuf = zbuffer(warper, disparity, k) if disparity is not None else None
             sd = side[k] if len(sides) > 1 else sides[0]
-            matching.accumulate(prep, warper, k, reference, total[sd], count[sd], zbuf=zbuf,
-                                tolerance=config.visibility_tolerance * step, centre=config.centre,
-                                params=config.matching)
+            if revisit:
+                matching.revisit(prep, warper, k, reference, total[sd], count[sd], zbuf_old=zbufs.get(k),
+                                 zbuf=zbuf, tolerance=tol, centre=config.centre, params=config.matching)
+            else:
+                matching.accumulate(prep, warper, k, reference, total[sd], count[sd], zbuf=zbuf, tolerance=tol,
+                                    centre=config.centre, params=config.matching)
+            zbufs[k] = zbuf
             report(progress, "match", p * len(others) + n + 1, passes * len(others))
         cost = combine_views(total, count, 0.0 if config.centre else config.matching.max_cost,
                              config.subset_penalty, out=S if config.box > 1 else windowed)

@@ -79,7 +79,8 @@ def sgm(cost: np.ndarray, guide: np.ndarray, *, P1: float = P1, P2: float = P2, 
         out[...] = 0.0
     directions = DIRECTIONS_8[:paths]
     for n, (dy, dx) in enumerate(directions):
-        _depth_kernels.sgm_path(cost, guide, np.float32(P1), np.float32(P2), np.float32(sigma), dy, dx, out)
+        ys, xs = _depth_kernels.path_starts(cost.shape[0], cost.shape[1], dy, dx)
+        _depth_kernels.sgm_path(cost, guide, np.float32(P1), np.float32(P2), np.float32(sigma), dy, dx, out, ys, xs)
         report(progress, "sgm", n + 1, len(directions))
     return out
 
