@@ -127,9 +127,11 @@ def accumulate_shift(cref, vref, cview, vview, sx, sy, zbuf, planes, tol, rho_ce
 @njit(cache=True, parallel=True, nogil=True)
 def revisit_shift(cref, vref, cview, vview, sx, sy, zb_old, zb_new, planes, tol, rho_census, rho_ad, centre,
                   total, count):
-    """Rectified rigs: change view k's contribution to ``total``/``count`` from what :func:`accumulate_shift`
-    added with z-buffer ``zb_old`` to what it adds with ``zb_new``, touching only the pixels where some cell's
-    visibility in view k differs between the two (near occlusions: a small part of the plate).
+    """Rectified rigs: view k's contribution to ``total``/``count`` changed from one z-buffer to another.
+
+    From what :func:`accumulate_shift` added with z-buffer ``zb_old`` to what it adds with ``zb_new``, touching
+    only the pixels where some cell's visibility in view k differs between the two (near occlusions: a small
+    part of the plate).
     """
     H, W = cref.shape
     D = planes.shape[0]

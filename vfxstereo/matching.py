@@ -200,10 +200,11 @@ def accumulate(prepared: Prepared, warper, k: int, ref: int, total: np.ndarray, 
 def revisit(prepared: Prepared, warper, k: int, ref: int, total: np.ndarray, count: np.ndarray, *,
             zbuf_old: np.ndarray | None, zbuf: np.ndarray, tolerance: float = 0.0, centre: bool = False,
             params: MatchingParams = MatchingParams()) -> bool:
-    """Turn view ``k``'s contribution to ``total``/``count`` from :func:`accumulate` with ``zbuf_old`` (None: no
-    z-buffer) into its contribution with ``zbuf``, recomputing only the pixels whose visibility in view k
-    changed. Rectified rigs only: returns False (and changes nothing) for general cameras, which must
-    :func:`accumulate` again.
+    """Change view ``k``'s contribution to ``total``/``count`` from one z-buffer to another, in place.
+
+    From :func:`accumulate` with ``zbuf_old`` (None: no z-buffer) into its contribution with ``zbuf``,
+    recomputing only the pixels whose visibility in view k changed. Rectified rigs only: returns False (and
+    changes nothing) for general cameras, which must :func:`accumulate` again.
     """
     from vfxstereo import _depth_kernels
 
