@@ -85,6 +85,9 @@ PLANES = (32, 64, 128)
 QUICK_SIZES = ((240, 136), (480, 270))
 QUICK_PLANES = (8, 16)
 VIEWS = 5
+VIEW_CASES = ((960, 540, 64, 3), (960, 540, 64, 2))
+"""Extra cases with fewer views (the central ones of the five), so the plot spans views too."""
+QUICK_VIEW_CASES = ((480, 270, 16, 3),)
 
 TARGETS = [
     ((1920, 1080, 64), 120.0, 8.0, "1920x1080, K = 5, 64 planes: solve <= 120 s (goal 20 s), peak <= 8 GiB"),
@@ -188,10 +191,12 @@ def _reset_peak() -> bool:
         return False
 
 
-def run_case(width: int, height: int, planes: int, *, preset: str | None = None, drop: bool = False) -> dict:
+def run_case(width: int, height: int, planes: int, *, preset: str | None = None, drop: bool = False,
+             views: int = VIEWS) -> dict:
     """Make the plates and solve them here; what :func:`main` prints as JSON with ``--case``.
 
-    ``drop``: solve with ``keep_empty_planes=False`` (robust depth).
+    ``drop``: solve with ``keep_empty_planes=False`` (robust depth). ``views``: how many of the five views,
+    the central ones (the reference stays the middle view).
     """
     import resource
 
@@ -202,7 +207,6 @@ def run_case(width: int, height: int, planes: int, *, preset: str | None = None,
     config = solver.fit_to_memory(SolveConfig.preset(preset or DEFAULT_PRESET))
     if drop:
         config = config.replace(keep_empty_planes=False)
-    views = VIEWS  # layered_scene makes five
     robust = config.depth == "robust"
     memory = {"depth": config.depth, "strip_memory": config.depth_config.strip_memory if robust else None,
               "layers": 1 if drop else None}
@@ -216,6 +220,10 @@ def run_case(width: int, height: int, planes: int, *, preset: str | None = None,
     t0 = time.perf_counter()
     scene = samples.layered_scene(shape=(height, width), num_planes=planes)
     plates, positions, reference, truth = scene.views, scene.positions, scene.reference, scene.gt_disparity()
+    if views < len(plates):  # the central views, the reference among them
+        first = min(max(0, reference - views // 2), len(plates) - views)
+        plates, positions = plates[first:first + views], positions[first:first + views]
+        reference -= first
     del scene
     result["plates_seconds"] = time.perf_counter() - t0
     warm = samples.layered_scene(shape=(32, 48), num_planes=8)  # JIT compilation and caches: not timed
@@ -251,12 +259,13 @@ def run_case(width: int, height: int, planes: int, *, preset: str | None = None,
 
 
 def _spawn(width: int, height: int, planes: int, *, preset: str | None, timeout: float | None,
-           drop: bool = False) -> dict:
+           drop: bool = False, views: int = VIEWS) -> dict:
     """:func:`run_case` in a fresh interpreter; a death or a timeout becomes ``{"failed": why}``."""
-    argv = [sys.executable, os.path.abspath(__file__), "--case", f"{width}x{height}", str(planes)]
+    argv = [sys.executable, os.path.abspath(__file__), "--case", f"{width}x{height}", str(planes),
+            "--views", str(views)]
     argv += ["--preset", preset] if preset else []
     argv += ["--drop-empty-planes"] if drop else []
-    case = {"width": width, "height": height, "planes": planes, "views": VIEWS, "drop": drop}
+    case = {"width": width, "height": height, "planes": planes, "views": views, "drop": drop}
     try:
         proc = subprocess.run(argv, stdout=subprocess.PIPE, stderr=None, text=True, timeout=timeout)
     except subprocess.TimeoutExpired:
@@ -284,7 +293,8 @@ def _stages(results: list[dict]) -> list[str]:
 
 
 def _label(r: dict) -> str:
-    return f"{r['width']}x{r['height']}" + (" (empty planes dropped)" if r.get("drop") else "")
+    return (f"{r['width']}x{r['height']}" + (f", K = {r['views']}" if r.get("views", VIEWS) != VIEWS else "")
+            + (" (empty planes dropped)" if r.get("drop") else ""))
 
 
 def _status(r: dict) -> str | None:
@@ -324,7 +334,7 @@ def tables(results: list[dict], bytes_per_second: float) -> str:
         "Solve time per stage (s), peak memory, cost per cell-view",
         common.markdown_table(["plate", "planes", "total s", *stages, "peak GiB", "start GiB", "estimate GiB",
                                "ns per cell-view", "good %"], rows, digits=2)
-        + "\n\nK = 5 views. *peak*: VmHWM of the solve's process, reset after the plates were made; *start*: "
+        + "\n\n*peak*: VmHWM of the solve's process, reset after the plates were made; *start*: "
           "what was resident then (libraries and plates), so the solve itself added peak - start; *estimate*: "
           "`solver.memory_needed`, the solve's own estimate of that; *good*: reference pixels within 1 of the "
           "true disparity.")
@@ -390,7 +400,7 @@ def plot(results: list[dict], path) -> None:
 
 
 def run(*, quick: bool = False, sizes=None, planes=None, preset: str | None = None,
-        timeout: float | None = None, drop: bool = False) -> str:
+        timeout: float | None = None, drop: bool = False, views: bool = True) -> str:
     """Run every case (each in its own process) and return the Markdown report; write it and the plot."""
     from tqdm import tqdm
 
@@ -398,17 +408,20 @@ def run(*, quick: bool = False, sizes=None, planes=None, preset: str | None = No
     planes = planes or (QUICK_PLANES if quick else PLANES)
     b = bandwidth(128 if quick else 512)
     results = []
-    cases = [(w, h, d) for (w, h) in sizes for d in planes]
+    cases = [(w, h, d, VIEWS) for (w, h) in sizes for d in planes]
+    if views:
+        cases += [(w, h, d, k) for (w, h, d, k) in (QUICK_VIEW_CASES if quick else VIEW_CASES)]
     with tqdm(cases, desc="speed cases", file=sys.stderr, dynamic_ncols=True) as bar:
-        for w, h, d in bar:
-            bar.set_postfix_str(f"{w}x{h} D={d}")
-            results.append(_spawn(w, h, d, preset=preset, timeout=timeout, drop=drop))
+        for w, h, d, k in bar:
+            bar.set_postfix_str(f"{w}x{h} D={d} K={k}")
+            results.append(_spawn(w, h, d, preset=preset, timeout=timeout, drop=drop, views=k))
             if "refused" in results[-1] and not drop and results[-1]["settings"].get("depth") == "robust":
                 # a full stack that cannot fit: the same plate with only the planes that hold something
-                results.append(_spawn(w, h, d, preset=preset, timeout=timeout, drop=True))
+                results.append(_spawn(w, h, d, preset=preset, timeout=timeout, drop=True, views=k))
     config = f"preset `{preset}`" if preset else f"the default preset (`{DEFAULT_PRESET}`)"
-    head = (f"Plates: `samples.layered_scene`, K = {VIEWS}; {config} (each case's settings are in the JSON "
-            f"beside this table). Memory bandwidth {b / 1e9:.1f} GB/s (np.copyto, this run).")
+    head = (f"Plates: `samples.layered_scene`, K = {VIEWS} unless the plate column says otherwise; {config} "
+            f"(each case's settings are in the JSON beside this table). Memory bandwidth {b / 1e9:.1f} GB/s "
+            "(np.copyto, this run).")
     report = common.section("Speed and memory of solve (issue 8)", head) + tables(results, b)
     name = "speed_quick" if quick else "speed"
     out = common.out_dir()
@@ -436,15 +449,17 @@ def main(argv=None) -> int:
     parser.add_argument("--timeout", type=float, help="seconds a case may take before it is reported as failed")
     parser.add_argument("--drop-empty-planes", action="store_true",
                         help="solve with keep_empty_planes=False (by default only cases refused otherwise are)")
+    parser.add_argument("--no-views", action="store_true", help="skip the cases with fewer views")
+    parser.add_argument("--views", type=int, default=VIEWS, help=argparse.SUPPRESS)  # with --case
     parser.add_argument("--case", nargs=2, metavar=("WxH", "PLANES"), help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.case:
         w, h = _size(args.case[0])
-        print(json.dumps(run_case(w, h, int(args.case[1]), preset=args.preset, drop=args.drop_empty_planes),
-                         default=str))
+        print(json.dumps(run_case(w, h, int(args.case[1]), preset=args.preset, drop=args.drop_empty_planes,
+                                  views=args.views), default=str))
         return 0
     print(run(quick=args.quick, sizes=args.sizes, planes=args.planes, preset=args.preset, timeout=args.timeout,
-              drop=args.drop_empty_planes))
+              drop=args.drop_empty_planes, views=not (args.no_views or args.sizes or args.planes)))
     return 0
 
 

@@ -42,3 +42,21 @@ def test_a_case_that_does_not_finish_is_a_failed_row():
     result = speed._spawn(64, 48, 8, preset=None, timeout=0.05)
     assert result["failed"] == "no result within --timeout 0.05 s"
     assert "failed: no result" in speed.tables([result], bytes_per_second=1e9)
+
+
+def test_the_robust_byte_model_sums_the_depth_stages_and_counts_the_layers_held():
+    n, d, k = 100, 10, 5
+    robust = {"depth": "robust", "depth_config": {"visibility_passes": 1}}
+    parts = [speed.stage_bytes(s, n=n, d=d, k=k, settings=robust) for s in ("depth.match", "depth.sgm",
+                                                                             "depth.finish")]
+    assert parts[0] == 2 * ((k - 1) * 10 * d * n + 28 * d * n)  # two passes
+    assert speed.stage_bytes("depth", n=n, d=d, k=k, settings=robust) == sum(parts)
+    full = speed.stage_bytes("layers", n=n, d=d, k=k, settings=robust)
+    lean = speed.stage_bytes("layers", n=n, d=d, k=k, settings=robust, layers=2)
+    assert full - lean == 16 * (d - 2) * n
+
+
+def test_a_case_with_fewer_views_solves_the_central_ones():
+    result = speed.run_case(64, 48, 8, views=3)
+    assert result["views"] == 3 and result["good"] > 0.8  # still solves
+    assert speed._label(result) == "64x48, K = 3"
