@@ -99,28 +99,51 @@ def accumulate_shift(cref, vref, cview, vview, sx, sy, zbuf, planes, tol, rho_ce
     size, the largest disparity that lands on each view pixel, -inf where none), a cell is seen only where
     ``zbuf`` at its (nearest) view pixel is at most ``planes[i] + tol``. With ``centre``, the view's mean cost
     over the cells of the pixel it sees is subtracted first.
+
+    A row at a time, a plane at a time: a whole-pixel shift reads the view's row in order (one census tap,
+    no interpolation), twice as fast as going pixel by pixel through :func:`_cell_cost`, which the other
+    planes use; then the row's costs are centred and added.
     """
     H, W = cref.shape
     D = planes.shape[0]
+    C = vref.shape[2]
+    nad = rho_ad.shape[0] - 1
     for y in prange(H):
-        buf = np.empty(D, np.float32)
-        seen = np.empty(D, np.bool_)
+        row = np.full((W, D), -1.0, np.float32)  # -1: outside the view
+        for i in range(D):
+            s = sx[i]
+            v = y - sy[i]
+            if not (v >= 0.0 and v <= H - 1):
+                continue
+            if v != np.floor(v) or s != np.floor(s):
+                for x in range(W):
+                    row[x, i] = _cell_cost(cref, vref, cview, vview, y, x, x - s, v, H, W, rho_census, rho_ad)
+                continue
+            si = int(s)
+            vi = int(v)
+            for x in range(max(0, si), min(W, W + si)):
+                u = x - si
+                ad = 0.0
+                for ch in range(C):
+                    ad += abs(vview[vi, u, ch] - vref[y, x, ch])
+                j = min(int(ad / (C * AD_TABLE_STEP) + 0.5), nad)
+                row[x, i] = rho_census[popcount(cref[y, x] ^ cview[vi, u])] + rho_ad[j]
         for x in range(W):
-            s = 0.0
+            sm = 0.0
             n = 0
             for i in range(D):
-                u = x - sx[i]
-                v = y - sy[i]
-                c = _cell_cost(cref, vref, cview, vview, y, x, u, v, H, W, rho_census, rho_ad)
-                seen[i] = c >= 0.0 and zbuf[min(int(v + 0.5), H - 1), min(int(u + 0.5), W - 1)] <= planes[i] + tol
-                if seen[i]:
-                    buf[i] = c
-                    s += c
-                    n += 1
-            m = s / n if centre and n > 0 else 0.0
+                if row[x, i] >= 0.0:
+                    u = x - sx[i]
+                    v = y - sy[i]
+                    if zbuf[min(int(v + 0.5), H - 1), min(int(u + 0.5), W - 1)] <= planes[i] + tol:
+                        sm += row[x, i]
+                        n += 1
+                    else:
+                        row[x, i] = -1.0
+            m = sm / n if centre and n > 0 else 0.0
             for i in range(D):
-                if seen[i]:
-                    total[y, x, i] += buf[i] - m
+                if row[x, i] >= 0.0:
+                    total[y, x, i] += row[x, i] - m
                     count[y, x, i] += 1
 
 
