@@ -365,11 +365,11 @@ def test_the_memory_check_refuses_a_robust_solve_that_cannot_fit():
     from vfxstereo import solver
 
     need = solver.memory_needed((2160, 4096), 128, 5, depth="robust")
-    stack = 2160 * 4096 * 128 * 30  # the layers' volume and working images bound the peak at 4K x 128
-    assert stack < need < stack * 1.1
+    stack = 2160 * 4096 * 128 * 16  # the stack's volume bounds the peak at 4K x 128
+    assert stack < need < stack * 1.25
     assert solver.memory_needed((2160, 4096), 128, 5, depth="variance") > 4 * need
     small = solver.memory_needed((2160, 4096), 128, 5, depth="robust", layers=8)  # empty planes dropped
-    assert small < 0.25 * need
+    assert small < 0.4 * need  # the depth strips (6 GiB) bound it now
     # the strips bound the depth stage: more planes without more layers only cost the strip budget
     assert solver.memory_needed((2160, 4096), 1024, 5, layers=8) == small
     with pytest.raises(VfxStereoError, match="GiB"):
@@ -397,7 +397,7 @@ def test_the_robust_memory_estimate_matches_what_the_solve_allocates(keep):
         tracemalloc.stop()
     need = solver.memory_needed((136, 240), 24, 5, layers=stack.depth)
     peak += s.views.nbytes  # the plates: already resident here, counted in the estimate
-    assert 0.8 * need < peak < 1.2 * need, (peak, need)  # measured 0.85 (empty planes dropped), 1.03
+    assert 0.8 * need < peak < 1.2 * need, (peak, need)  # measured 1.13 (empty planes dropped), 1.15
 
 
 def test_a_stack_without_its_empty_planes_holds_the_same_layers():

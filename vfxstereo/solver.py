@@ -44,11 +44,13 @@ _BYTES_PER_CELL_PER_VIEW = 4 * 5
 # The robust path (depth="robust"), in two phases that do not overlap. The depth stage holds its cost volumes
 # (depth.DEPTH_BYTES_PER_CELL per cell of the strip it solves, at most DepthConfig.strip_memory GiB: see
 # depth.strip_plan); then the layers are built in place in the stack's one RGBA volume (16 bytes per cell of the
-# planes it holds) with per-plane working images for the planes that hold hidden cells or soft-edge
-# backgrounds and the soft edges' masks (14 more, measured). Per pixel and view, both phases hold the views
-# and what is made from them (matching images, z-buffers: 32 bytes, measured). Measured against tracemalloc's
-# peak in tests/test_solver.py (within 15 % at 240x136, 24 planes, K = 5, with and without empty planes).
-_ROBUST_STACK_BYTES_PER_CELL = 16 + 14
+# planes it holds), with images per pixel beside it (z-buffers and grown z-buffers per view, the soft edges'
+# backgrounds and masks, the hidden layers' sums for the planes that have them: 256 bytes per pixel). Per
+# pixel and view, both phases hold the views and their matching images (census code, colour, grey: 32 bytes).
+# Measured against tracemalloc's peak in tests/test_solver.py (0.8-1.2x at 240x136 x 24 planes, K = 5) and
+# against the resident peak by benchmarks/speed.py (HD and 4K).
+_ROBUST_STACK_BYTES_PER_CELL = 16
+_ROBUST_LAYER_BYTES_PER_PIXEL = 256
 _ROBUST_BYTES_PER_PIXEL_PER_VIEW = 32
 
 
@@ -66,7 +68,8 @@ def memory_needed(shape: tuple[int, int], n_planes: int, n_views: int, *, depth:
 
         budget = (DepthConfig().strip_memory if strip_memory is None else strip_memory) * 2**30
         depth_stage = min(cells * DEPTH_BYTES_PER_CELL, budget)
-        stack = pixels * (n_planes if layers is None else int(layers)) * _ROBUST_STACK_BYTES_PER_CELL
+        stack = pixels * ((n_planes if layers is None else int(layers)) * _ROBUST_STACK_BYTES_PER_CELL
+                          + _ROBUST_LAYER_BYTES_PER_PIXEL)
         return int(pixels * n_views * _ROBUST_BYTES_PER_PIXEL_PER_VIEW + max(depth_stage, stack))
     return cells * (_BYTES_PER_CELL + _BYTES_PER_CELL_PER_VIEW * int(n_views))
 
