@@ -172,3 +172,72 @@ def test_the_box_filter_kernel_is_scipys_uniform_filter(rng):
         np.testing.assert_allclose(depth.box_filter(cost, size), ref, rtol=0, atol=2e-6)
         out = np.empty_like(cost)
         assert depth.box_filter(cost, size, out=out) is out
+
+
+def _square_scene(seed=5, shape=(40, 56)):
+    """A random-dot square at d = 6 over a random-dot background at d = 0 (K = 5, whole-pixel shifts)."""
+    h, w = shape
+    return samples.random_dot_stereogram(shape=shape, seed=seed, squares=[(6, 12, 20, 16, 18)])
+
+
+def _fattened(gt: np.ndarray, px: int) -> np.ndarray:
+    """``gt`` with its near surface grown by ``px`` pixels over the background (foreground fattening)."""
+    from scipy import ndimage
+
+    return ndimage.grey_dilation(gt, size=(2 * px + 1, 2 * px + 1)).astype(np.float32)
+
+
+def test_edge_refinement_kernel_matches_its_numpy_reference():
+    from vfxstereo import matching
+
+    s = _square_scene(shape=(30, 44))
+    gt = s.gt_disparity(0.5).astype(np.float32)
+    warper = Warper(s.camera, s.disparities, s.shape)
+    config = depth.DepthConfig(edge_refine=True, edge_support=2)
+    prep = matching.prepare(np.asarray(s.views, np.float32), config.matching)
+    start = _fattened(gt, 2)
+    start[::7, ::5] -= 1.0  # some texture in the map: candidates are means, not two levels
+    out, state = depth.refine_edges(prep, warper, s.reference, start, config)
+    ref, ref_state = depth.refine_edges_reference(prep, warper, s.reference, start, config)
+    assert (state > 0).sum() > 100 and ((state == 2) | (state == 3)).sum() > 10
+    same = state == ref_state
+    assert same.mean() > 0.995  # the kernel reads its cost from tables, the reference computes it
+    np.testing.assert_allclose(out[same], ref[same], atol=1e-4)
+
+
+@pytest.mark.parametrize("px", [2, 3])
+def test_edge_refinement_puts_a_fattened_edge_back_within_a_pixel(px):
+    from scipy import ndimage
+
+    from vfxstereo import matching
+
+    s = _square_scene()
+    gt = s.gt_disparity(0.5).astype(np.float32)
+    warper = Warper(s.camera, s.disparities, s.shape)
+    config = depth.DepthConfig(edge_refine=True)
+    prep = matching.prepare(np.asarray(s.views, np.float32), config.matching)
+    start = _fattened(gt, px)
+    out, _ = depth.refine_edges(prep, warper, s.reference, start, config)
+    truth = gt > 3
+    boundary = ndimage.binary_dilation(truth) ^ ndimage.binary_erosion(truth)  # the pixels next to the edge
+    wrong_before = (start > 3) ^ truth
+    wrong_after = (out > 3) ^ truth
+    assert (wrong_before & ~ndimage.binary_dilation(boundary, iterations=px - 1)).any()  # fattened >= px
+    assert not (wrong_after & ~boundary).any()  # every error within 1 px of the true edge
+    assert wrong_after.sum() < 0.2 * wrong_before.sum()
+    assert np.all(out <= start.max())  # never a surface nearer than the candidates
+
+
+def test_rematch_consistency_agrees_on_an_exact_pair():
+    s = samples.random_dot_stereogram(shape=(40, 56), seed=2, squares=[(6, 12, 20, 16, 18)])
+    views = np.asarray(s.views)[2:4]  # the reference and its right neighbour
+    cam = Camera.from_positions(np.asarray(s.camera.positions)[2:4], 0)
+    warper = Warper(cam, s.disparities, s.shape)
+    gt = s.gt_disparity(0.5)
+    base = depth.robust_depth(views, warper, 0, config=depth.DepthConfig(consistency=True))
+    re = depth.robust_depth(views, warper, 0, config=depth.DepthConfig(consistency=True, consistency_method="rematch"))
+    inside = np.zeros(s.shape, bool)
+    inside[4:-4, 8:-4] = True
+    assert np.mean(np.abs(re.disparity - gt)[inside] <= 0.5) >= np.mean(np.abs(base.disparity - gt)[inside] <= 0.5)
+    # the half-occluded strip left of the square (6 px wide) is found unreliable
+    assert not re.reliable[14:26, 15:19].any()

@@ -389,3 +389,133 @@ def fill_from_farther(disparity, reliable, guide, out):
                 if vals[j] <= limit and diffs[j] < best:
                     best = diffs[j]
                     out[y, x] = vals[j]
+
+
+# --------------------------------------------------------------------------------------------------------
+# Depth-edge refinement: front or back candidate by a pixelwise cost with adaptive support weights
+
+
+@njit(cache=True, nogil=True)
+def edge_candidates(disparity, y, x, r, jump):
+    """Front and back candidate of pixel (y, x) from its ``(2 r + 1)``-square neighbourhood.
+
+    Returns ``(is_edge, front, back, mid)``: the neighbourhood's disparities are split at the midpoint ``mid`` of
+    their range; ``front`` is the mean of those at or above it, ``back`` of those below. ``is_edge`` is False
+    (and the rest meaningless) where the range is below ``jump``.
+    """
+    H, W = disparity.shape
+    lo = np.inf
+    hi = -np.inf
+    for b in range(max(y - r, 0), min(y + r + 1, H)):
+        for a in range(max(x - r, 0), min(x + r + 1, W)):
+            lo = min(lo, disparity[b, a])
+            hi = max(hi, disparity[b, a])
+    if not hi - lo >= jump:
+        return False, 0.0, 0.0, 0.0
+    mid = 0.5 * (lo + hi)
+    sf = 0.0
+    nf = 0
+    sb = 0.0
+    nb = 0
+    for b in range(max(y - r, 0), min(y + r + 1, H)):
+        for a in range(max(x - r, 0), min(x + r + 1, W)):
+            if disparity[b, a] >= mid:
+                sf += disparity[b, a]
+                nf += 1
+            else:
+                sb += disparity[b, a]
+                nb += 1
+    return True, sf / nf, sb / nb, mid
+
+
+@njit(cache=True, nogil=True)
+def _support_cost(cref, vref, cview, vview, y, x, sx, sy, weights, R, rho_census, rho_ad):
+    """Support-weighted mean AD-census cost of the window around (y, x), every pixel shifted by (sx, sy).
+
+    ``weights`` is the ``(2 R + 1)``-square window's weights; pixels whose shifted position leaves the view or
+    whose window position leaves the frame are left out. -1 when none is left.
+    """
+    H, W = cref.shape
+    s = 0.0
+    n = 0.0
+    for j in range(-R, R + 1):
+        b = y + j
+        if b < 0 or b >= H:
+            continue
+        for i in range(-R, R + 1):
+            a = x + i
+            if a < 0 or a >= W:
+                continue
+            wgt = weights[j + R, i + R]
+            if wgt <= 0.0:
+                continue
+            c = _cell_cost(cref, vref, cview, vview, b, a, a - sx, b - sy, H, W, rho_census, rho_ad)
+            if c < 0.0:
+                continue
+            s += wgt * c
+            n += wgt
+    return s / n if n > 0.0 else -1.0
+
+
+@njit(cache=True, parallel=True, nogil=True)
+def edge_refine(disparity, r, jump, cref, vref, cviews, vviews, offsets, zbufs, tol, rho_census, rho_ad, R,
+                gamma_c, gamma_s, margin, out, state):
+    """Re-decide each depth-edge pixel between its front and back candidate (:func:`edge_candidates`).
+
+    For each view m (``cviews[m]``, ``vviews[m]`` at ``offsets[m]`` view steps from the reference, its z-buffer
+    ``zbufs[m]``) that sees the back candidate (the view pixel it lands on holds no disparity above
+    ``back + tol``), both candidates get the support-weighted pixelwise cost (:func:`_support_cost`) with
+    weights ``exp(-|colour difference| / gamma_c - distance / gamma_s)`` from the reference around the pixel;
+    costs are averaged over those views. The pixel moves to the other side's candidate when that costs less by
+    more than ``margin``; where no view sees the back candidate it is kept. ``state``: 0 no edge, 1 kept,
+    2 moved back, 3 moved forward, 4 kept with no view seeing the back candidate.
+    """
+    H, W = disparity.shape
+    M = cviews.shape[0]
+    C = vref.shape[2]
+    for y in prange(H):
+        weights = np.empty((2 * R + 1, 2 * R + 1), np.float64)
+        for x in range(W):
+            out[y, x] = disparity[y, x]
+            state[y, x] = 0
+            is_edge, front, back, mid = edge_candidates(disparity, y, x, r, jump)
+            if not is_edge:
+                continue
+            state[y, x] = 1
+            for j in range(-R, R + 1):
+                for i in range(-R, R + 1):
+                    b = min(max(y + j, 0), H - 1)
+                    a = min(max(x + i, 0), W - 1)
+                    dc = 0.0
+                    for ch in range(C):
+                        dc += abs(vref[b, a, ch] - vref[y, x, ch])
+                    weights[j + R, i + R] = np.exp(-dc / (C * gamma_c) - np.sqrt(i * i + j * j) / gamma_s)
+            cf = 0.0
+            cb = 0.0
+            n = 0
+            for m in range(M):
+                ub = x - back * offsets[m, 0]
+                vb = y - back * offsets[m, 1]
+                if not (ub >= 0.0 and ub <= W - 1 and vb >= 0.0 and vb <= H - 1):
+                    continue
+                if zbufs[m, min(int(vb + 0.5), H - 1), min(int(ub + 0.5), W - 1)] > back + tol:
+                    continue
+                eb = _support_cost(cref, vref, cviews[m], vviews[m], y, x, back * offsets[m, 0],
+                                   back * offsets[m, 1], weights, R, rho_census, rho_ad)
+                ef = _support_cost(cref, vref, cviews[m], vviews[m], y, x, front * offsets[m, 0],
+                                   front * offsets[m, 1], weights, R, rho_census, rho_ad)
+                if eb < 0.0 or ef < 0.0:
+                    continue
+                cb += eb
+                cf += ef
+                n += 1
+            if n == 0:
+                state[y, x] = 4
+                continue
+            is_front = disparity[y, x] >= mid
+            if is_front and cb + n * margin < cf:
+                out[y, x] = back
+                state[y, x] = 2
+            elif not is_front and cf + n * margin < cb:
+                out[y, x] = front
+                state[y, x] = 3
