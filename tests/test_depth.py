@@ -241,3 +241,13 @@ def test_rematch_consistency_agrees_on_an_exact_pair():
     assert np.mean(np.abs(re.disparity - gt)[inside] <= 0.5) >= np.mean(np.abs(base.disparity - gt)[inside] <= 0.5)
     # the half-occluded strip left of the square (6 px wide) is found unreliable
     assert not re.reliable[14:26, 15:19].any()
+
+
+def test_the_one_pass_mean_is_the_general_combination(rng):
+    total = {0: rng.normal(size=(6, 7, 5)).astype(np.float32)}
+    count = {0: rng.integers(0, 4, (6, 7, 5)).astype(np.uint8)}
+    general = depth.combine_views(total, count, 0.25, None)
+    out = np.empty((6, 7, 5), np.float32)
+    assert depth.combine_views(total, count, 0.25, None, out=out) is out
+    np.testing.assert_array_equal(out, general)
+    assert (out[count[0] == 0] == 0.25).all() and (count[0] == 0).any()

@@ -113,39 +113,3 @@ def test_matching_params_refuse_windows_that_do_not_fit():
     with pytest.raises(VfxStereoError):
         MatchingParams(lambda_ad=0.0)
 
-
-def test_revisit_equals_accumulating_again_with_the_new_zbuffer(rng):
-    """The visibility pass's shortcut: changing one view's contribution from one z-buffer to another in place
-    gives what a fresh accumulation with the new z-buffer gives."""
-    from vfxstereo import depth, samples
-    from vfxstereo.warp import Warper
-
-    s = samples.layered_scene(shape=(40, 56), num_planes=10, seed=4)
-    warper = Warper(s.camera, np.arange(10.0), (40, 56))
-    prep = matching.prepare(s.views, matching.MatchingParams())
-    truth = s.gt_disparity()
-    for centre in (False, True):
-        for k in (0, 3):
-            zb_old = depth.zbuffer(warper, np.where(truth > 5, truth, 0.0).astype(np.float32), k)
-            zb_new = depth.zbuffer(warper, truth.astype(np.float32), k)
-            fresh_t = np.zeros((40, 56, 10), np.float32)
-            fresh_c = np.zeros((40, 56, 10), np.uint8)
-            matching.accumulate(prep, warper, k, 2, fresh_t, fresh_c, zbuf=zb_new, tolerance=1.0, centre=centre)
-            t = np.zeros((40, 56, 10), np.float32)
-            c = np.zeros((40, 56, 10), np.uint8)
-            for zb in (None, zb_old):  # from no z-buffer to the old one, then to the new one
-                if zb is None:
-                    matching.accumulate(prep, warper, k, 2, t, c, tolerance=1.0, centre=centre)
-                    previous = None
-                else:
-                    assert matching.revisit(prep, warper, k, 2, t, c, zbuf_old=previous, zbuf=zb, tolerance=1.0,
-                                            centre=centre)
-                previous = zb
-            assert matching.revisit(prep, warper, k, 2, t, c, zbuf_old=zb_old, zbuf=zb_new, tolerance=1.0,
-                                    centre=centre)
-            np.testing.assert_array_equal(c, fresh_c)
-            np.testing.assert_allclose(t, fresh_t, atol=1e-5)
-            old_c = np.zeros((40, 56, 10), np.uint8)
-            matching.accumulate(prep, warper, k, 2, np.zeros((40, 56, 10), np.float32), old_c, zbuf=zb_old,
-                                tolerance=1.0, centre=centre)
-            assert (old_c != fresh_c).sum() > 20  # the revisit had cells to change

@@ -170,3 +170,22 @@ def test_visibility_weights_sum_to_flattened_alpha(rng):
 def test_alpha_coverage():
     s = _two_layer_stack()
     np.testing.assert_allclose(s.alpha_coverage(), [1.0, 0.5 / 3])
+
+
+def test_the_one_pass_stack_checks_agree_with_the_layer_by_layer_ones(rng):
+    """Stacks of a million values and more are checked by a numba kernel; smaller ones a layer at a time."""
+    from vfxstereo import stack as stack_module
+    from vfxstereo._edge_kernels import stack_checks
+
+    rgba = rng.uniform(0, 1, (5, 64, 64, 4)).astype(np.float32)
+    rgba[..., :3] *= rgba[..., 3:]
+    rgba[1, 3, 4, 0] = -0.2
+    rgba[2, 5, 6, 1] = 1.5  # more than alpha
+    for case in (rgba, np.where(np.arange(4) == 2, np.nan, rgba)[:2].astype(np.float32)):
+        slow = stack_module._layer_checks(case, 1.0)  # small: the numpy path
+        fast = stack_checks(np.ascontiguousarray(case).reshape(-1, 4), 1.0)
+        assert fast[0] == slow[0]
+        np.testing.assert_allclose(fast[1:], slow[1:], atol=1e-6)
+    rgba[1, 3, 4, 0] = 0.0
+    with pytest.raises(VfxStereoError, match="exceeds alpha"):
+        LayerStack(np.repeat(rgba, 52, axis=0), np.arange(260.0))  # 4 M values: the kernel's path

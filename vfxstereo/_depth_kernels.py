@@ -148,67 +148,6 @@ def accumulate_shift(cref, vref, cview, vview, sx, sy, zbuf, planes, tol, rho_ce
 
 
 @njit(cache=True, parallel=True, nogil=True)
-def revisit_shift(cref, vref, cview, vview, sx, sy, zb_old, zb_new, planes, tol, rho_census, rho_ad, centre,
-                  total, count):
-    """Rectified rigs: view k's contribution to ``total``/``count`` changed from one z-buffer to another.
-
-    From what :func:`accumulate_shift` added with z-buffer ``zb_old`` to what it adds with ``zb_new``, touching
-    only the pixels where some cell's visibility in view k differs between the two (near occlusions: a small
-    part of the plate).
-    """
-    H, W = cref.shape
-    D = planes.shape[0]
-    for y in prange(H):
-        buf = np.empty(D, np.float32)
-        old = np.empty(D, np.bool_)
-        new = np.empty(D, np.bool_)
-        for x in range(W):
-            changed = False
-            for i in range(D):
-                u = x - sx[i]
-                v = y - sy[i]
-                if u >= 0.0 and u <= W - 1 and v >= 0.0 and v <= H - 1:
-                    vi = min(int(v + 0.5), H - 1)
-                    ui = min(int(u + 0.5), W - 1)
-                    if (zb_old[vi, ui] <= planes[i] + tol) != (zb_new[vi, ui] <= planes[i] + tol):
-                        changed = True
-                        break
-            if not changed:
-                continue
-            s_old = 0.0
-            n_old = 0
-            s_new = 0.0
-            n_new = 0
-            for i in range(D):
-                u = x - sx[i]
-                v = y - sy[i]
-                c = _cell_cost(cref, vref, cview, vview, y, x, u, v, H, W, rho_census, rho_ad)
-                buf[i] = c
-                old[i] = False
-                new[i] = False
-                if c >= 0.0:
-                    vi = min(int(v + 0.5), H - 1)
-                    ui = min(int(u + 0.5), W - 1)
-                    old[i] = zb_old[vi, ui] <= planes[i] + tol
-                    new[i] = zb_new[vi, ui] <= planes[i] + tol
-                if old[i]:
-                    s_old += c
-                    n_old += 1
-                if new[i]:
-                    s_new += c
-                    n_new += 1
-            m_old = s_old / n_old if centre and n_old > 0 else 0.0
-            m_new = s_new / n_new if centre and n_new > 0 else 0.0
-            for i in range(D):
-                if old[i]:
-                    total[y, x, i] -= buf[i] - m_old
-                    count[y, x, i] -= 1
-                if new[i]:
-                    total[y, x, i] += buf[i] - m_new
-                    count[y, x, i] += 1
-
-
-@njit(cache=True, parallel=True, nogil=True)
 def accumulate_map(cref, vref, cview, vview, umap, vmap, zbuf, plane, tol, rho_census, rho_ad, total, count, i):
     """General cameras: :func:`accumulate_shift` for one plane ``i``.
 
@@ -318,6 +257,17 @@ def sgm_path(C, guide, P1, P2, sigma, dy, dx, S, start_y, start_x):
                 S[y, x, d] += lc[d]
                 lp[d] = lc[d]
             mp = m
+
+
+@njit(cache=True, parallel=True, nogil=True)
+def mean_cost(total, count, unseen, out):
+    """``out = total / count`` where ``count > 0``, else ``unseen`` (all (H, W, D); one pass, no temporaries)."""
+    H, W, D = total.shape
+    for y in prange(H):
+        for x in range(W):
+            for d in range(D):
+                c = count[y, x, d]
+                out[y, x, d] = total[y, x, d] / np.float32(c) if c > 0 else unseen
 
 
 @njit(cache=True, parallel=True, nogil=True)

@@ -11,16 +11,54 @@ from numba import njit, prange
 
 @njit(cache=True, parallel=True, nogil=True)
 def clamp_premultiplied(cells, white):
-    """In place, each row (R, G, B, A) of ``cells`` (N, 4): colour into ``[0, white * A]``."""
+    """In place, each row (R, G, B, A) of ``cells`` (N, 4): colour into ``[0, white * A]``.
+
+    Only cells that change are written: most of a volume is empty, and its pages, never written, stay
+    unallocated (writing them all cost 1.5 s per HD x 64-plane volume in page faults).
+    """
     for n in prange(cells.shape[0]):
         top = white * cells[n, 3]
         for c in range(3):
             v = cells[n, c]
             if v < 0.0:
-                v = 0.0
-            if v > top:
-                v = top
-            cells[n, c] = v
+                cells[n, c] = 0.0
+            elif v > top:
+                cells[n, c] = top
+
+
+@njit(cache=True, parallel=True, nogil=True)
+def stack_checks(cells, white):
+    """The stack's checks over the rows (R, G, B, A) of ``cells`` (N, 4), in one pass.
+
+    Returns the number of non-finite values, alpha's least and largest, colour's least, and the most colour
+    exceeds ``white`` times alpha.
+    """
+    n = cells.shape[0]
+    blocks = 64
+    bad = np.zeros(blocks, np.int64)
+    a_min = np.full(blocks, np.inf)
+    a_max = np.full(blocks, -np.inf)
+    c_min = np.full(blocks, np.inf)
+    excess = np.full(blocks, -np.inf)
+    step = (n + blocks - 1) // blocks
+    for b in prange(blocks):
+        for i in range(b * step, min(n, (b + 1) * step)):
+            a = cells[i, 3]
+            finite = np.isfinite(a)
+            for c in range(3):
+                finite = finite and np.isfinite(cells[i, c])
+            if not finite:
+                for c in range(4):
+                    if not np.isfinite(cells[i, c]):
+                        bad[b] += 1
+                continue
+            a_min[b] = min(a_min[b], a)
+            a_max[b] = max(a_max[b], a)
+            for c in range(3):
+                v = cells[i, c]
+                c_min[b] = min(c_min[b], v)
+                excess[b] = max(excess[b], v - white * a)
+    return bad.sum(), a_min.min(), a_max.max(), c_min.min(), excess.max()
 
 
 @njit(cache=True, nogil=True)

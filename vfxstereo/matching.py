@@ -197,29 +197,6 @@ def accumulate(prepared: Prepared, warper, k: int, ref: int, total: np.ndarray, 
         count += c_k
 
 
-def revisit(prepared: Prepared, warper, k: int, ref: int, total: np.ndarray, count: np.ndarray, *,
-            zbuf_old: np.ndarray | None, zbuf: np.ndarray, tolerance: float = 0.0, centre: bool = False,
-            params: MatchingParams = MatchingParams()) -> bool:
-    """Change view ``k``'s contribution to ``total``/``count`` from one z-buffer to another, in place.
-
-    From :func:`accumulate` with ``zbuf_old`` (None: no z-buffer) into its contribution with ``zbuf``,
-    recomputing only the pixels whose visibility in view k changed. Rectified rigs only: returns False (and
-    changes nothing) for general cameras, which must :func:`accumulate` again.
-    """
-    from vfxstereo import _depth_kernels
-
-    shifts = warper.shifts(k)
-    if shifts is None:
-        return False
-    if zbuf_old is None:
-        zbuf_old = np.full(warper.shape, -np.inf, np.float32)
-    lam = params.tables()
-    _depth_kernels.revisit_shift(prepared.census[ref], prepared.values[ref], prepared.census[k],
-                                 prepared.values[k], *shifts, zbuf_old, zbuf, warper.disparities.astype(np.float32),
-                                 np.float32(tolerance), *lam, bool(centre), total, count)
-    return True
-
-
 def cell_cost_reference(prepared: Prepared, k: int, ref: int, y: int, x: int, u: float, v: float,
                         params: MatchingParams = MatchingParams()) -> float:
     """AD-census cost of reference pixel (y, x) against view k at (u, v): the reference of the kernels.

@@ -37,6 +37,11 @@ def _layer_checks(rgba: np.ndarray, white: float) -> tuple[int, float, float, fl
     Returns the number of non-finite values, alpha's least and largest, colour's least, and the most colour
     exceeds ``white`` times alpha.
     """
+    if rgba.flags.c_contiguous and rgba.dtype == np.float32 and rgba.size >= 1 << 20:  # one parallel pass
+        from vfxstereo._edge_kernels import stack_checks
+
+        bad, a_min, a_max, c_min, excess = stack_checks(rgba.reshape(-1, 4), float(white))
+        return int(bad), float(a_min), float(a_max), float(c_min), float(excess)
     bad, a_min, a_max, c_min, excess = 0, np.inf, -np.inf, np.inf, -np.inf
     for layer in rgba:
         finite = np.isfinite(layer)
