@@ -210,6 +210,7 @@ class SolveConfig:
         d = dataclasses.asdict(self)
         d["lambdas"] = list(self.lambdas)
         d["depth_config"]["matching"]["census_radius"] = list(self.depth_config.matching.census_radius)
+        d["depth_config"]["edge_census_radius"] = list(self.depth_config.edge_census_radius)
         return d
 
     @classmethod
@@ -220,6 +221,8 @@ class SolveConfig:
         dc = dict(d["depth_config"])
         dc["matching"] = _depth.matching.MatchingParams(**{**dc["matching"],
                                                            "census_radius": tuple(dc["matching"]["census_radius"])})
+        if "edge_census_radius" in dc:
+            dc["edge_census_radius"] = tuple(dc["edge_census_radius"])
         d["depth_config"] = _depth.DepthConfig(**dc)
         d["soft_edge"] = _softedge.SoftEdgeParams(**d["soft_edge"])
         return cls(**d)
