@@ -527,6 +527,11 @@ def _robust_depth(views, warper, reference, config, progress, keep_volume) -> De
     if config.consistency or (config.consistency is None and K == 2):
         off = _consistency_offset(warper, reference, config.consistency_view)
         if off is not None and config.consistency_method == "rematch":
+            if not keep_volume:  # the second match builds volumes of its own: free ours first
+                total.clear()
+                count.clear()
+                del windowed, cost
+                S = None
             reliable &= _rematch_consistency(views, warper, reference, disparity, off, config)
         elif off is not None:
             reliable &= _consistency(S, win, d, off)
