@@ -72,6 +72,16 @@ def test_solve_writes_stack_disparity_and_deep(tmp_path, views, scene):
     assert files_in(out) == {"s.exr", "d.exr", "deep.exr"}
 
 
+def test_solve_drops_the_empty_planes_when_asked(tmp_path, views, scene):
+    status, _, err = run_cli("solve", *views, "-o", tmp_path / "s.exr", "--disparities", "0:12",
+                             "--drop-empty-planes", "-q")
+    assert status == 0, err
+    stack = exr.read_stack(tmp_path / "s.exr")
+    used = np.unique(scene.gt_disparity())  # the stereogram's planes (whole disparities)
+    assert 2 <= stack.depth < 13 and set(used) <= set(stack.disparities)
+    assert (stack.rgba[..., 3].max(axis=(1, 2)) > 0).all()  # every layer written holds something
+
+
 def test_solve_from_dataset_json(tmp_path, views, scene):
     import json
 
