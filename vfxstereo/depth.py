@@ -115,16 +115,16 @@ class DepthConfig:
     """GiB the stage's cost volumes may take at once. A plate whose volumes need more is solved in horizontal
     strips (:func:`strips`), each with ``strip_margin`` rows of context above and below that are solved and
     thrown away; rectified rigs only (a general camera is solved whole). 6 GiB solves 1920x1080 with up to
-    129 planes whole and 4096x2160 with 129 planes in 6 strips; :func:`vfxstereo.solver.fit_to_memory` lowers
-    it on a machine with less free memory. (2 GiB cut 4096x2160 x 129 planes into 54 strips of 40 rows, each
-    solved with 130 rows of margin: 4x the work.)"""
+    129 planes whole and 4096x2160 with 65 planes in 2 strips, with 129 in 4;
+    :func:`vfxstereo.solver.fit_to_memory` lowers it on a machine with less free memory. (2 GiB cut
+    4096x2160 x 129 planes into 54 strips of 40 rows, each solved with 130 rows of margin: 4x the work.)"""
     strip_margin: int = 64
     """Rows of context on each side of a strip (plus the largest vertical shift of any view). Semi-global
     matching carries costs along whole columns, so strips can differ from the whole solve near their seams
     where nothing local decides the depth. Measured on the z-key scenes cut into 60-row strips: trolls_art
     (textured) no pixel off by more than half a plane with 48 rows, 0.2 % with 24; koala_slope (a plain slanted
     wall) 5 % with 48 and 9 % with 24, its comps 0.1-1.1 dB lower; in 135-row strips with 32 rows, 2.8 %
-    and comps within 0.11 dB. HD plates are cut into 2 strips of about 600 rows by default."""
+    and comps within 0.11 dB. HD plates are solved whole by default, 4K ones in 2-4 strips of 540-1080 rows."""
 
     edge_refine: bool = False
     """Step 8: re-decide the pixels near depth edges between their neighbourhood's front and back disparity by a
