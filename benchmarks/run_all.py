@@ -1,6 +1,6 @@
 """Run the benchmarks and print every table (Markdown); this is what ``make bench`` runs.
 
-    python benchmarks/run_all.py                     # everything, full size (speed's HD and 4K cases: hours)
+    python benchmarks/run_all.py                     # everything, full size (speed's HD and 4K cases: ~10 min)
     python benchmarks/run_all.py --quick             # small crops and scenes, fewer iterations (a few minutes)
     python benchmarks/run_all.py --only middlebury   # a subset: middlebury, zkey, throughput, speed
 
