@@ -207,9 +207,7 @@ def run_case(width: int, height: int, planes: int, *, preset: str | None = None,
     config = solver.fit_to_memory(SolveConfig.preset(preset or DEFAULT_PRESET))
     if drop:
         config = config.replace(keep_empty_planes=False)
-    robust = config.depth == "robust"
-    memory = {"depth": config.depth, "strip_memory": config.depth_config.strip_memory if robust else None,
-              "layers": 1 if drop else None}
+    memory = solver.memory_settings(config)
     estimate = solver.memory_needed((height, width), planes, views, **memory)
     result = {"width": width, "height": height, "planes": planes, "views": views,
               "settings": config.to_dict(), "estimate": estimate, "drop": drop}

@@ -104,6 +104,19 @@ def fit_to_memory(config: SolveConfig) -> SolveConfig:
     return config.replace(depth_config=dataclasses.replace(config.depth_config, strip_memory=max(0.25, free)))
 
 
+def memory_settings(config: SolveConfig) -> dict:
+    """The keyword arguments of :func:`memory_needed` and :func:`check_memory` for a solve with ``config``.
+
+    Before the depth map is known: the robust path's strip budget (:func:`fit_to_memory`), and with
+    ``keep_empty_planes=False`` one layer (the solve checks again once it knows which planes are used).
+    """
+    config = fit_to_memory(config)
+    if config.depth != "robust":
+        return {"depth": config.depth}
+    return {"depth": "robust", "strip_memory": config.depth_config.strip_memory,
+            "layers": None if config.keep_empty_planes else 1}
+
+
 def check_memory(shape: tuple[int, int], n_planes: int, n_views: int, *, depth: str = "robust",
                  strip_memory: float | None = None, layers: int | None = None) -> None:
     """Raise VfxStereoError, saying how much is needed, when a solve cannot fit in memory.
@@ -240,10 +253,7 @@ def solve(views, *, positions=None, reference: int | None = None, disparities, c
         camera = Camera.from_positions(pos, reference)
     elif camera.K != n_views:
         raise VfxStereoError(f"the camera describes {camera.K} views, but {n_views} were given")
-    robust = config.depth == "robust"
-    check_memory((h, w), len(disparities), n_views, depth=config.depth,
-                 strip_memory=config.depth_config.strip_memory if robust else None,
-                 layers=1 if robust and not config.keep_empty_planes else None)  # the layers are checked again
+    check_memory((h, w), len(disparities), n_views, **memory_settings(config))
     warper = Warper(camera, disparities, (h, w))
     ref = views[_reference_index(camera)]
     ref_view = camera.reference_index  # the view the virtual camera is, if any
@@ -393,7 +403,7 @@ def _solve_robust(views, warper, camera, disparities, config, *, progress, white
                         params=config.soft_edge, gains=gains, zbuffers=zbuffers, progress=progress,
                         inplace=in_place, planes=planes)
         layers.clamp(rgba, white)
-    if config.refine_iterations > 0 and any(config.lambdas):
+    if refining:
         rgba = timed("refine", refine.refine, initial, disparities, views, warper,
                      config.refine_config(white=white), progress=progress)
     if config.edge_matting:

@@ -140,10 +140,9 @@ class SolveTask:
     def config(self):
         """The solver's settings: the preset, with ``drop_empty_planes``."""
         from vfxstereo.config import SolveConfig
-        from vfxstereo.solver import fit_to_memory
 
         config = SolveConfig.preset(self.preset)
-        return fit_to_memory(config.replace(keep_empty_planes=False) if self.drop_empty_planes else config)
+        return config.replace(keep_empty_planes=False) if self.drop_empty_planes else config
 
     def check(self, job: Job) -> None:
         """Before any work: the frame's views, from their headers, against positions, cameras and memory."""
@@ -166,10 +165,7 @@ class SolveTask:
         if self.camera is not None and self.camera.K != k:
             raise VfxStereoError(f"--cameras describes {self.camera.K} cameras for {k} views")
         d = len(self.disparities) if self.disparities is not None else len(default_disparities(w))
-        robust = config.depth == "robust"
-        solver.check_memory((h, w), d, k, depth=config.depth,
-                            strip_memory=config.depth_config.strip_memory if robust else None,
-                            layers=1 if robust and not config.keep_empty_planes else None)
+        solver.check_memory((h, w), d, k, **solver.memory_settings(config))
 
     def __call__(self, job: Job, progress: Progress | None = None) -> None:
         """Solve the frame of ``job`` and write its outputs."""
