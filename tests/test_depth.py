@@ -251,3 +251,42 @@ def test_the_one_pass_mean_is_the_general_combination(rng):
     assert depth.combine_views(total, count, 0.25, None, out=out) is out
     np.testing.assert_array_equal(out, general)
     assert (out[count[0] == 0] == 0.25).all() and (count[0] == 0).any()
+
+
+def _pair_warper(shape, disparities, positions=(0.0, 1.0), reference=0):
+    return Warper(Camera.from_positions(list(positions), reference), np.asarray(disparities, np.float64), shape)
+
+
+def test_surfaces_are_carried_across_the_frame_edge_strip_no_other_view_sees():
+    # left view of a stereo pair: a point at x and disparity d is at x - d in the right view
+    h, w = 6, 40
+    warper = _pair_warper((h, w), np.arange(0.0, 10.0))
+    truth = np.full((h, w), 2.0, np.float32)
+    truth[:3, :15] = 8.0  # a near surface crossing the left frame edge in the top rows
+    found = truth.copy()
+    found[:3, :8] = 2.0  # matching took the background where the surface is out of the right view (x < 8)
+    found[:3, 10:12] = 2.0  # ... and, inside the frame, where the data said so
+    out = depth.extend_to_frame_edges(found, warper, 0)
+    np.testing.assert_array_equal(out[:3, :8], 8.0)  # carried from x = 8, the first column the right view sees
+    np.testing.assert_array_equal(out[:3, 8:], found[:3, 8:])  # a pixel some view sees keeps its disparity
+    np.testing.assert_array_equal(out[3:], found[3:])  # nothing nearer to carry
+    # a farther surface is never carried over a nearer one
+    back = np.full((h, w), 8.0, np.float32)
+    back[:, 6:] = 2.0
+    np.testing.assert_array_equal(depth.extend_to_frame_edges(back, warper, 0), back)
+    # with a view on the other side, the strip is seen: nothing changes
+    both = _pair_warper((h, w), np.arange(0.0, 10.0), positions=(-1.0, 0.0, 1.0), reference=1)
+    np.testing.assert_array_equal(depth.extend_to_frame_edges(found, both, 1), found)
+
+
+def test_a_near_square_at_the_frame_edge_keeps_its_depth_in_a_stereo_pair():
+    s = samples.random_dot_stereogram(shape=(40, 56), seed=4, squares=[(6, 10, 0, 20, 24)])
+    views = np.asarray(s.views)[2:4]  # the reference and its right neighbour
+    warper = _pair_warper(s.shape, s.disparities)
+    gt = s.gt_disparity(0.5)
+    strip = (slice(12, 28), slice(0, 6))  # the square's columns that the right view does not see
+    assert (gt[strip] == 6).all()
+    on = depth.robust_depth(views, warper, 0)
+    off = depth.robust_depth(views, warper, 0, config=depth.DepthConfig(frame_edges=False))
+    assert np.mean(np.abs(on.disparity[strip] - 6) <= 0.5) > 0.95
+    assert np.mean(np.abs(off.disparity[strip] - 6) <= 0.5) < 0.5  # matching alone takes the background there
