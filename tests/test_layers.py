@@ -122,7 +122,8 @@ def test_soft_edges_from_the_views_beat_the_hard_edge_of_the_true_depth(shared_d
     assert ours < 0.8 * hard, (ours, hard)
     # the reference view is reproduced: the band's front over back gives the plate back
     flat = LayerStack(layers.clamp(out, 2.0), planes).flatten()[..., :3]
-    assert np.abs(flat - views[s.reference])[info.band].mean() < 0.02  # measured 0.011 (clamping C to >= 0)
+    err = np.abs(flat - views[s.reference])[info.band]
+    assert err.max() < 1e-4, err.max()  # measured 6e-8; clipping C to [0, alpha] alone left 0.11
 
 
 def test_the_background_image_is_the_background_where_a_view_sees_it():
