@@ -23,7 +23,10 @@ This stage gives the layered model a dependable front surface instead, from clas
    pair, those the consistency check rejects (``consistency``: the disparity of the view
    ``consistency_view`` steps away is read off the aggregated volume by a diagonal search, Hirschmueller
    2008, and compared with the reference's by re-projection) are filled from the farther of their reliable
-   neighbours (:func:`fill_unreliable`), never by inventing a nearer surface.
+   neighbours (:func:`fill_unreliable`), never by inventing a nearer surface. (The check's second match is
+   made from the other view as a reference of its own, ``consistency_method="rematch"``, by default.)
+   Then a surface that reaches the strip along a frame edge that no other view sees continues across it
+   (``frame_edges``, :func:`extend_to_frame_edges`): no view can say anything there.
 7. A 3x3 median.
 8. Optionally (``edge_refine``), the pixels near depth edges are re-decided between their neighbourhood's
    front and back disparity by a pixelwise cost with colour-adaptive support weights over the views that see
