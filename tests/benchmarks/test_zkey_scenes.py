@@ -20,9 +20,10 @@ def test_the_summary_counts_wins_ties_and_losses_against_the_sgbm_key():
     rows = [_row((31.0, 21.0), (30.0, 20.0)),   # beats on both
             _row((30.0, 20.0), (30.0, 20.0)),   # the same comp: a tie, not a win
             _row((29.0, 20.002), (30.0, 20.0)),  # loses the frame, ties the band within TIE
-            _row((30.5, 19.0), (30.0, 20.0), K=2)]  # beats the frame, loses the band
+            _row((30.5, 19.0), (30.0, 20.0), K=2),  # beats the frame, loses the band
+            _row((31.0, 150.0), (30.0, 160.0))]  # both exact on the band (above CAP): a tie
     text = zkey.tables(rows, "test")
-    m = re.search(r"beats the SGBM key on (\d+)/4 rows over the frame \(ties (\d+), loses (\d+)\) "
-                  r"and (\d+)/4 on the band \(ties (\d+), loses (\d+)\)", text)
+    m = re.search(r"beats the SGBM key on (\d+)/5 rows over the frame \(ties (\d+), loses (\d+)\) "
+                  r"and (\d+)/5 on the band \(ties (\d+), loses (\d+)\)", text)
     assert m, text
-    assert tuple(map(int, m.groups())) == (2, 1, 1, 1, 2, 1)
+    assert tuple(map(int, m.groups())) == (3, 1, 1, 1, 3, 1)
