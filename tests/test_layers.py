@@ -142,3 +142,57 @@ def test_soft_edge_settings_that_cannot_work_are_refused():
     for bad in ({"radius": 0}, {"dilate": -1}, {"snap": 0.5}):
         with pytest.raises(VfxStereoError, match="soft edges"):
             softedge.SoftEdgeParams(**bad)
+
+
+def _edges_info(band, alpha, front, back):
+    shape = band.shape
+    return softedge.SoftEdges(band=band, alpha=alpha.astype(np.float32), front=front.astype(np.int32),
+                              back=back.astype(np.int32), confidence=np.zeros(shape, np.float32))
+
+
+def test_relabel_sends_mostly_background_near_side_pixels_back_and_nothing_nearer():
+    planes = np.arange(0.0, 8.0)
+    index = np.array([[6, 6, 6, 6, 1, 1]])
+    disparity = planes[index].astype(np.float32) + 0.2
+    band = np.ones(index.shape, bool)
+    alpha = np.array([[0.9, 0.1, 0.3, 0.6, 0.7, 0.0]])
+    front = np.array([[6, 6, 6, 6, 6, 6]])
+    back = np.array([[1, 1, 3, 1, 1, 1]])
+    info = _edges_info(band, alpha, front, back)
+    d2, i2, moved = softedge.relabel(disparity, index, info, planes)
+    # near side (index >= front) with alpha < 0.5 go to their back plane; the far side never moves forward
+    np.testing.assert_array_equal(i2, [[6, 1, 3, 6, 1, 1]])
+    np.testing.assert_allclose(d2, [[6.2, 1.0, 3.0, 6.2, 1.2, 1.2]], atol=1e-6)
+    assert moved == 2 and (i2 <= index).all()
+    np.testing.assert_array_equal(index, [[6, 6, 6, 6, 1, 1]])  # the inputs are not modified
+    # outside the band nothing moves
+    same = softedge.relabel(disparity, index, _edges_info(~band, alpha, front, back), planes)
+    assert same[2] == 0 and same[1] is index
+
+
+@pytest.mark.data
+def test_later_soft_edge_passes_pull_a_fattened_edge_back_to_the_matte(shared_data):
+    """The true depth grown by 3 px (a fattened foreground): one soft-edge pass keeps much of the grown rim as
+    hair; the passes that follow the matte get the hair's holdout closer to the truth."""
+    from scipy import ndimage
+
+    s = _hair_scene()
+    views = s.views()
+    planes = np.arange(0.0, 8.5, 0.5)
+    warper = Warper(Camera.from_positions(s.positions, s.reference), planes, s.shape)
+    disparity = ndimage.maximum_filter(s.gt_disparity(0.5), size=7).astype(np.float32)
+    index = layers.plane_index(disparity, planes)
+    true_alpha = s.reference_layers()[1][..., 3]
+    errors = {}
+    for passes in (1, 8):
+        vol = layers.front_volume(index, views[s.reference], len(planes))
+        layers.hidden_volume(views, warper, s.reference, disparity, index, out=vol)
+        layers.clamp(vol, 1.0)
+        out, info, d_last = softedge.soften_edges_passes(
+            vol, views, warper, s.reference, disparity, index, params=softedge.SoftEdgeParams(passes=passes),
+            white=1.0)
+        assert (d_last <= disparity + 1e-6).all()  # pixels only ever move back
+        hold = 1.0 - np.prod(1.0 - out[planes > 3.5, ..., 3], axis=0)
+        rim = ndimage.binary_dilation(true_alpha > 0.02, iterations=4) & ~(true_alpha > 0.98)
+        errors[passes] = float(np.abs(hold - true_alpha)[rim].mean())
+    assert errors[8] < 0.85 * errors[1], errors  # measured 0.147 -> 0.100

@@ -93,16 +93,24 @@ def slots(planes: np.ndarray | None, n_planes: int) -> np.ndarray:
 
 
 def front_volume(index: np.ndarray, plate: np.ndarray, n_planes: int, *,
-                 planes: np.ndarray | None = None) -> np.ndarray:
+                 planes: np.ndarray | None = None, out: np.ndarray | None = None) -> np.ndarray:
     """(D, H, W, 4) premultiplied: opaque plate colour on each pixel's plane ``index`` (-1: nothing).
 
-    ``planes``: hold only these planes (increasing; they must include every plane of ``index``).
+    ``planes``: hold only these planes (increasing; they must include every plane of ``index``). ``out``: a
+    volume of that shape to clear and write into instead of a new one.
     """
     h, w = index.shape
     if plate.shape[:2] != (h, w):
         raise VfxStereoError(f"the plate {plate.shape[:2]} and the depth map {(h, w)} differ in size")
     slot = slots(planes, n_planes)
-    vol = np.zeros((n_planes if planes is None else len(planes), h, w, 4), np.float32)
+    shape = (n_planes if planes is None else len(planes), h, w, 4)
+    if out is None:
+        vol = np.zeros(shape, np.float32)
+    else:
+        if out.shape != shape:
+            raise VfxStereoError(f"front_volume: out has shape {out.shape}, not {shape}")
+        vol = out
+        vol[...] = 0.0
     ys, xs = np.nonzero(index >= 0)
     layer = slot[index[ys, xs]]
     if (layer < 0).any():

@@ -65,10 +65,24 @@ class SoftEdgeParams:
     """Alphas within this of 0 or 1 become 0 or 1 (most band pixels are clear or solid)."""
     search: int = 24
     """Farthest a foreground colour sample is looked for, px."""
+    passes: int = 8
+    """Passes at most (:func:`relabel`; it stops when no pixel moves). After each pass, the near-side pixels
+    whose alpha came out below 0.5 go back to their back surface, the initial volume is rebuilt from that
+    depth and the edges are softened again: the band and the backgrounds then follow the matte instead of the
+    depth map's fattened edge. Depth maps fatten foregrounds (a window that straddles an edge takes the
+    textured side's depth), and the soft edges are only as good as the edge they start from: with the true
+    depth cut at alpha 0.5 they beat the true-depth hard key by 2.1 dB on the band (trolls_art and
+    tassels_room, K = 5), cut at 0.2 they tie it, at 0.05 they lose 2.3 dB. Pixels only ever move back,
+    never nearer. Measured on the z-key tuning scenes (mean band, K = 5 / K = 2): 1 pass 19.44 / 18.13 dB,
+    3 passes 20.03 / 18.46, 5 passes 20.22 / 18.74, 8 passes 20.37 / 18.85 (no scene worse by more than
+    0.05 dB; trolls_art +2.1 / +0.9, plush_wall +3.7 / +1.5, tassels_room +1.3 / +1.0). Moving far-side
+    pixels whose alpha came out above 0.5 to the front as well cost tree_cloth 0.5 dB: its far-side alphas
+    are poor where a third surface lies between the two. Each pass rebuilds the layers: on a 960x540 plate
+    with 32 planes, 5 passes (then nothing moved) took the solve from 3.9 to 8.9 s. 1: one pass."""
 
     def __post_init__(self):
-        if self.radius < 1 or self.dilate < 0 or self.search < 1 or not 0 <= self.snap < 0.5:
-            raise VfxStereoError("soft edges: radius >= 1, dilate >= 0, search >= 1, 0 <= snap < 0.5")
+        if self.radius < 1 or self.dilate < 0 or self.search < 1 or not 0 <= self.snap < 0.5 or self.passes < 1:
+            raise VfxStereoError("soft edges: radius >= 1, dilate >= 0, search >= 1, 0 <= snap < 0.5, passes >= 1")
 
 
 def _sample(img: np.ndarray, X: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -299,6 +313,62 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
                       "residual": resid, "prior": prior}
     report(progress, "soft-edges", 1, 1)
     return out, info
+
+
+def soften_edges_passes(volume: np.ndarray, views: np.ndarray, warper, reference: int, disparity: np.ndarray,
+                        index: np.ndarray, *, params: SoftEdgeParams | None = None, gains: np.ndarray | None = None,
+                        zbuffers: list[np.ndarray] | None = None, progress: Progress | None = None,
+                        inplace: bool = False, planes: np.ndarray | None = None,
+                        white: float = 1.0) -> tuple[np.ndarray, SoftEdges, np.ndarray]:
+    """:func:`soften_edges`, then up to ``params.passes - 1`` more passes that follow the matte.
+
+    After each pass, :func:`relabel` sends the near-side pixels whose alpha came out below 0.5 back to their
+    back surface; the initial volume (front surface and hidden layers, :mod:`vfxstereo.layers`) is rebuilt
+    from that depth map in the same buffer and softened again. Stops when no pixel moves.
+
+    ``volume`` is the initial volume of ``disparity``/``index`` (clamped to ``white``); it is written only
+    with ``inplace``. Returns ``(volume, SoftEdges of the last pass, the depth map it used)``.
+    """
+    from vfxstereo import layers
+    from vfxstereo.depth import zbuffer
+
+    p = params or SoftEdgeParams()
+    out, info = soften_edges(volume, views, warper, reference, disparity, index, params=p, gains=gains,
+                             zbuffers=zbuffers, progress=progress, inplace=inplace, planes=planes)
+    D = len(warper.disparities)
+    for _ in range(p.passes - 1):
+        disparity, index, moved = relabel(disparity, index, info, warper.disparities)
+        if not moved:
+            break
+        zbuffers = [zbuffer(warper, disparity, k) for k in range(views.shape[0])]
+        layers.front_volume(index, views[reference], D, planes=planes, out=out)
+        layers.hidden_volume(views, warper, reference, disparity, index, gains=gains, zbuffers=zbuffers, out=out,
+                             planes=planes)
+        layers.clamp(out, white)
+        out, info = soften_edges(out, views, warper, reference, disparity, index, params=p, gains=gains,
+                                 zbuffers=zbuffers, inplace=True, planes=planes)
+    return out, info, disparity
+
+
+def relabel(disparity: np.ndarray, index: np.ndarray, info: SoftEdges, disparities: np.ndarray,
+            threshold: float = 0.5) -> tuple[np.ndarray, np.ndarray, int]:
+    """The depth map with the near-side band pixels whose alpha is below ``threshold`` moved to their back plane.
+
+    A near-side pixel (on the front surface of its edge) whose matte says it is mostly background belongs to
+    the surface behind it: the one :func:`soften_edges` composited it over, a plane the depth map has there
+    (the nearest hidden cell behind it, or the farthest surface around). Nothing moves nearer. Returns
+    ``(disparity, index, moved)``; the inputs are not modified.
+    """
+    near = info.band & (info.front >= 0) & (index >= info.front) & (info.back >= 0)
+    move = near & (np.nan_to_num(info.alpha, nan=1.0) < threshold) & (info.back < index)
+    n = int(move.sum())
+    if n == 0:
+        return disparity, index, 0
+    disparity = np.array(disparity, np.float32, copy=True)
+    index = np.array(index, copy=True)
+    disparity[move] = np.asarray(disparities, np.float32)[info.back[move]]
+    index[move] = info.back[move]
+    return disparity, index, n
 
 
 def _edges(index: np.ndarray, jump: int) -> np.ndarray:

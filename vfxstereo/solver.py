@@ -45,12 +45,13 @@ _BYTES_PER_CELL_PER_VIEW = 4 * 5
 # (depth.DEPTH_BYTES_PER_CELL per cell of the strip it solves, at most DepthConfig.strip_memory GiB: see
 # depth.strip_plan); then the layers are built in place in the stack's one RGBA volume (16 bytes per cell of the
 # planes it holds), with images per pixel beside it (z-buffers and grown z-buffers per view, the soft edges'
-# backgrounds and masks, the hidden layers' sums for the planes that have them: 256 bytes per pixel). Per
+# backgrounds and masks, the hidden layers' sums for the planes that have them, and in the soft edges' later
+# passes the relabelled depth map, its z-buffers and the last pass's edges beside them: 384 bytes per pixel). Per
 # pixel and view, both phases hold the views and their matching images (census code, colour, grey: 32 bytes).
 # Measured against tracemalloc's peak in tests/test_solver.py (0.8-1.2x at 240x136 x 24 planes, K = 5) and
 # against the resident peak by benchmarks/speed.py (HD and 4K).
 _ROBUST_STACK_BYTES_PER_CELL = 16
-_ROBUST_LAYER_BYTES_PER_PIXEL = 256
+_ROBUST_LAYER_BYTES_PER_PIXEL = 384
 _ROBUST_BYTES_PER_PIXEL_PER_VIEW = 32
 
 
@@ -399,9 +400,9 @@ def _solve_robust(views, warper, camera, disparities, config, *, progress, white
     if config.soft_edges:
         from vfxstereo import softedge
 
-        rgba, _ = timed("soft-edges", softedge.soften_edges, rgba, views, warper, ref_view, res.disparity, index,
-                        params=config.soft_edge, gains=gains, zbuffers=zbuffers, progress=progress,
-                        inplace=in_place, planes=planes)
+        rgba, _, _ = timed("soft-edges", softedge.soften_edges_passes, rgba, views, warper, ref_view, res.disparity,
+                        index, params=config.soft_edge, gains=gains, zbuffers=zbuffers, progress=progress,
+                        inplace=in_place, planes=planes, white=white)
         layers.clamp(rgba, white)
     if refining:
         rgba = timed("refine", refine.refine, initial, disparities, views, warper,
