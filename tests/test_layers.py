@@ -196,3 +196,24 @@ def test_later_soft_edge_passes_pull_a_fattened_edge_back_to_the_matte(shared_da
         rim = ndimage.binary_dilation(true_alpha > 0.02, iterations=4) & ~(true_alpha > 0.98)
         errors[passes] = float(np.abs(hold - true_alpha)[rim].mean())
     assert errors[8] < 0.85 * errors[1], errors  # measured 0.147 -> 0.100
+
+
+def test_the_passes_stop_once_the_matte_settles():
+    """settle=1: fewer pixels than the whole band would move, so the first pass is the last (and the same)."""
+    s = _two_layer_scene()
+    warper = Warper(s.camera, s.disparities, s.shape)
+    disparity = s.gt_disparity(0.5).astype(np.float32)
+    from scipy import ndimage
+
+    disparity = ndimage.maximum_filter(disparity, size=5)  # fattened, so that pixels would move
+    index = layers.plane_index(disparity, s.disparities)
+    vol = layers.front_volume(index, s.views[s.reference], len(s.disparities))
+    layers.hidden_volume(s.views, warper, s.reference, disparity, index, out=vol)
+    layers.clamp(vol, 1.0)
+    one, info1, d1 = softedge.soften_edges_passes(vol, s.views, warper, s.reference, disparity, index,
+                                                  params=softedge.SoftEdgeParams(passes=1))
+    settled, _, d2 = softedge.soften_edges_passes(vol, s.views, warper, s.reference, disparity, index,
+                                                  params=softedge.SoftEdgeParams(passes=8, settle=1.0))
+    assert softedge.relabel(disparity, index, info1, s.disparities)[2] > 0  # the next pass would move pixels
+    np.testing.assert_array_equal(one, settled)
+    assert d1 is disparity and d2 is disparity
