@@ -168,6 +168,9 @@ def test_relabel_sends_mostly_background_near_side_pixels_back_and_nothing_neare
     # outside the band nothing moves
     same = softedge.relabel(disparity, index, _edges_info(~band, alpha, front, back), planes)
     assert same[2] == 0 and same[1] is index
+    # only where the views triangulate the matte (their backgrounds vary), with a confidence asked for
+    info.confidence[0, 1] = 0.05
+    assert softedge.relabel(disparity, index, info, planes, confidence=0.01)[1][0].tolist() == [6, 1, 6, 6, 1, 1]
 
 
 @pytest.mark.data
@@ -195,7 +198,7 @@ def test_later_soft_edge_passes_pull_a_fattened_edge_back_to_the_matte(shared_da
         hold = 1.0 - np.prod(1.0 - out[planes > 3.5, ..., 3], axis=0)
         rim = ndimage.binary_dilation(true_alpha > 0.02, iterations=4) & ~(true_alpha > 0.98)
         errors[passes] = float(np.abs(hold - true_alpha)[rim].mean())
-    assert errors[8] < 0.85 * errors[1], errors  # measured 0.147 -> 0.100
+    assert errors[8] < 0.85 * errors[1], errors  # measured 0.147 -> 0.101
 
 
 def test_the_passes_stop_once_the_matte_settles():
