@@ -34,7 +34,7 @@ def _differences(a: SolveConfig, b: SolveConfig) -> dict:
 
 def test_every_named_preset_exists():
     assert set(PRESETS) == {"paper", "literal", "wta", "fig6a", "fig6b", "fig6c", "fig6d", "fig6e", "zkey",
-                            "robust"}
+                            "robust", "soft"}
     for name in PRESETS:
         assert isinstance(SolveConfig.preset(name), SolveConfig)
 
@@ -131,3 +131,10 @@ def test_to_dict_is_plain_json_and_round_trips():
         c = SolveConfig.preset(name)
         d = json.loads(json.dumps(c.to_dict()))
         assert SolveConfig.from_dict(d) == c
+
+
+def test_the_soft_preset_is_robust_with_soft_edges_that_follow_the_matte():
+    soft, robust = SolveConfig.preset("soft"), SolveConfig.preset("robust")
+    assert soft.soft_edge.passes == 8 and robust.soft_edge.passes == 1
+    assert soft.replace(soft_edge=robust.soft_edge) == robust
+    assert SolveConfig.from_dict(soft.to_dict()) == soft  # it round-trips through a stack's metadata

@@ -65,31 +65,33 @@ class SoftEdgeParams:
     """Alphas within this of 0 or 1 become 0 or 1 (most band pixels are clear or solid)."""
     search: int = 24
     """Farthest a foreground colour sample is looked for, px."""
-    passes: int = 8
-    """Passes at most (:func:`relabel`; it stops when no pixel moves). After each pass, the near-side pixels
-    whose alpha came out below 0.5 go back to their back surface, the initial volume is rebuilt from that
-    depth and the edges are softened again: the band and the backgrounds then follow the matte instead of the
-    depth map's fattened edge. Depth maps fatten foregrounds (a window that straddles an edge takes the
-    textured side's depth), and the soft edges are only as good as the edge they start from: with the true
-    depth cut at alpha 0.5 they beat the true-depth hard key by 2.1 dB on the band (trolls_art and
-    tassels_room, K = 5), cut at 0.2 they tie it, at 0.05 they lose 2.3 dB. Pixels only ever move back,
-    never nearer. Measured on the z-key tuning scenes (mean band, K = 5 / K = 2) with every pixel below 0.5
-    moving: 1 pass 19.44 / 18.13 dB, 3 passes 20.03 / 18.46, 5 passes 20.22 / 18.74, 8 passes 20.37 / 18.85
-    (no scene worse by more than 0.05 dB; trolls_art +2.1 / +0.9, plush_wall +3.7 / +1.5); with
-    ``relabel_confidence`` (the default) 8 passes give 19.95 / 18.15. Moving far-side
-    pixels whose alpha came out above 0.5 to the front as well cost tree_cloth 0.5 dB: its far-side alphas
-    are poor where a third surface lies between the two. Each pass rebuilds the layers: on a 960x540 plate
-    with 32 planes, 5 passes (then nothing moved) took the solve from 3.9 to 8.9 s. 1: one pass."""
+    passes: int = 1
+    """Passes at most (1, the default: one; the ``soft`` preset: 8; they stop when nothing moves). After each pass
+    (:func:`relabel`), the near-side pixels whose alpha came out below 0.5 go back to their back surface, the
+    initial volume is rebuilt from that depth and the edges are softened again: the band and the backgrounds then
+    follow the matte instead of the depth map's fattened edge. Depth maps fatten foregrounds (a window that
+    straddles an edge takes the textured side's depth), and the soft edges are only as good as the edge they start
+    from: with the true depth cut at alpha 0.5 they beat the true-depth hard key by 2.1 dB on the band (trolls_art
+    and tassels_room, K = 5), cut at 0.2 they tie it, at 0.05 they lose 2.3 dB. Pixels only ever move back, never
+    nearer. Measured on the z-key tuning scenes (mean band, K = 5 / K = 2) with every pixel below 0.5 moving: 1 pass
+    19.44 / 18.13 dB, 3 passes 20.03 / 18.46, 5 passes 20.22 / 18.74, 8 passes 20.37 / 18.85 (no scene worse by more
+    than 0.05 dB; trolls_art +2.1 / +0.9, plush_wall +3.7 / +1.5); with ``relabel_confidence=0.01``, 19.95 / 18.15.
+    Moving far-side pixels whose alpha came out above 0.5 to the front as well cost tree_cloth 0.5 dB: its far-side
+    alphas are poor where a third surface lies between the two. Each pass rebuilds the layers: on a 960x540 plate
+    with 32 planes, 5 passes (then nothing moved) took the solve from 3.9 to 8.9 s; at 1920x1080 with 64 planes,
+    from 22 to 33 s."""
     settle: float = 0.001
     """The passes stop when fewer than this share of the band's pixels would move."""
-    relabel_confidence: float = 0.01
+    relabel_confidence: float = 0.0
     """A pixel moves back only where its views see backgrounds varying by more than this (colour^2, summed
     over the views: ``SoftEdges.confidence``), so that the views, not the colour model alone, triangulate its
-    matte. On real photographs with hard, opaque edges the colour model's alphas are noisy: moving every pixel
-    below 0.5 took Middlebury tsukuba's held-out view from 33.7 to 30.3 dB (the SGBM warp: 32.5), venus from
-    36.4 to 36.1. With 0.01: tsukuba 33.5, venus 36.4; the z-key tuning scenes keep about half the passes'
-    gain at K = 5 (band 19.44 -> 19.95 dB) and little of it at K = 2 (18.13 -> 18.15), where one view
-    cannot triangulate; with 0.003 tsukuba fell to 32.3."""
+    matte; 0: every near-side pixel below 0.5 may move. Measured with 8 passes: with 0, the z-key benchmark
+    (all 82 rows) goes from 26.68 / 19.45 to 27.27 / 20.09 dB (frame / band; held-out koala_slope +3.3 dB
+    band, artichoke_books -2.9), but Middlebury tsukuba's held-out view from 33.7 to 30.3 dB (the SGBM warp:
+    32.5) and teddy's from 31.5 to 30.5: on real photographs with hard, opaque edges the colour model's alphas
+    are noisy, and the passes eat into the edge. With 0.01, tsukuba keeps 33.5 dB, but the z-key gain is gone
+    too (26.76 / 19.41). Hence one pass by default, and 8 with 0 in the ``soft`` preset, for hair, fur and
+    foliage."""
 
     def __post_init__(self):
         if self.radius < 1 or self.dilate < 0 or self.search < 1 or not 0 <= self.snap < 0.5 or self.passes < 1:
