@@ -188,3 +188,18 @@ def hidden_volume(views: np.ndarray, warper, reference: int, disparity: np.ndarr
         vol[slot[i], keep, :3] = total[keep] / weight[keep, None]
         vol[slot[i], keep, 3] = 1.0
     return vol
+
+
+def initial_volume(views: np.ndarray, warper, reference: int, disparity: np.ndarray, index: np.ndarray, *,
+                   gains: np.ndarray | None = None, zbuffers: list[np.ndarray] | None = None,
+                   planes: np.ndarray | None = None, white: float = 1.0,
+                   out: np.ndarray | None = None) -> np.ndarray:
+    """The initial volume of a depth map, clamped to ``white``: :func:`front_volume` plus :func:`hidden_volume`.
+
+    The two are disjoint (hidden cells lie behind the front ones). Written into ``out`` when given (cleared
+    first), else into a new volume.
+    """
+    vol = front_volume(index, views[reference], len(warper.disparities), planes=planes, out=out)
+    hidden_volume(views, warper, reference, disparity, index, gains=gains, zbuffers=zbuffers, out=vol,
+                  planes=planes)
+    return clamp(vol, white)

@@ -297,9 +297,9 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     # front over back must give the plate back: C = I - (1 - alpha) B, but C is clipped to [0, white alpha].
     # The rest r the clip leaves goes to both cells: C takes alpha r (within its clip), and B what makes
     # C + (1 - alpha) B = I again, so a pixel whose alpha snapped to 0 shows the plate itself, not the
-    # background estimate. Measured on the
-    # z-key tuning scenes: no row worse; mean band +0.04 dB (K = 5) and +0.05 (K = 2) without doll_plant,
-    # whose rows where the card barely meets the band go from 28.3 to 31.5 dB (K = 5), 24.7 to 29.6 (K = 2).
+    # background estimate. Measured on the z-key tuning scenes: no row worse; mean band +0.04 dB (K = 5) and
+    # +0.05 (K = 2) without doll_plant, whose rows where the card barely meets the band go from 28.3 to 31.5 dB
+    # (K = 5), 24.7 to 29.6 (K = 2).
     white = max(1.0, float(plate.max()))
     I0 = plate[ys, xs]
     a = alpha[:, None]
@@ -349,7 +349,6 @@ def soften_edges_passes(volume: np.ndarray, views: np.ndarray, warper, reference
     p = params or SoftEdgeParams()
     out, info = soften_edges(volume, views, warper, reference, disparity, index, params=p, gains=gains,
                              zbuffers=zbuffers, progress=progress, inplace=inplace, planes=planes)
-    D = len(warper.disparities)
     for _ in range(p.passes - 1):
         moved_d, moved_i, moved = relabel(disparity, index, info, warper.disparities,
                                           confidence=p.relabel_confidence)
@@ -357,10 +356,8 @@ def soften_edges_passes(volume: np.ndarray, views: np.ndarray, warper, reference
             break
         disparity, index = moved_d, moved_i
         zbuffers = [zbuffer(warper, disparity, k) for k in range(views.shape[0])]
-        layers.front_volume(index, views[reference], D, planes=planes, out=out)
-        layers.hidden_volume(views, warper, reference, disparity, index, gains=gains, zbuffers=zbuffers, out=out,
-                             planes=planes)
-        layers.clamp(out, white)
+        layers.initial_volume(views, warper, reference, disparity, index, gains=gains, zbuffers=zbuffers,
+                              planes=planes, white=white, out=out)
         out, info = soften_edges(out, views, warper, reference, disparity, index, params=p, gains=gains,
                                  zbuffers=zbuffers, inplace=True, planes=planes)
     return out, info, disparity

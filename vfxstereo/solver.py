@@ -387,11 +387,9 @@ def _solve_robust(views, warper, camera, disparities, config, *, progress, white
                  strip_memory=config.depth_config.strip_memory, layers=n_layers)
     zbuffers = [depth.zbuffer(warper, res.disparity, k) for k in range(views.shape[0])]  # hidden layers, edges
     gains = timed("layers", layers.view_gains, views, warper, ref_view, res.disparity)
-    initial = timed("layers", layers.front_volume, index, plate, len(disparities), planes=planes)
-    timed("layers", layers.hidden_volume, views, warper, ref_view, res.disparity, index, gains=gains,
-          zbuffers=zbuffers, out=initial, planes=planes)  # disjoint: hidden cells lie behind the front ones
+    initial = timed("layers", layers.initial_volume, views, warper, ref_view, res.disparity, index, gains=gains,
+                    zbuffers=zbuffers, planes=planes, white=white)
     report(progress, "layers", 1, 1)
-    layers.clamp(initial, white)
     hidden_cells = int(sum(((layer[..., 3] > 0) & (i < index)).sum() for i, layer in
                            zip(np.arange(len(disparities)) if planes is None else planes, initial, strict=True)))
     rgba = initial
@@ -400,9 +398,9 @@ def _solve_robust(views, warper, camera, disparities, config, *, progress, white
     if config.soft_edges:
         from vfxstereo import softedge
 
-        rgba, _, _ = timed("soft-edges", softedge.soften_edges_passes, rgba, views, warper, ref_view, res.disparity,
-                        index, params=config.soft_edge, gains=gains, zbuffers=zbuffers, progress=progress,
-                        inplace=in_place, planes=planes, white=white)
+        rgba, _, _ = timed("soft-edges", softedge.soften_edges_passes, rgba, views, warper, ref_view,
+                           res.disparity, index, params=config.soft_edge, gains=gains, zbuffers=zbuffers,
+                           progress=progress, inplace=in_place, planes=planes, white=white)
         layers.clamp(rgba, white)
     if refining:
         rgba = timed("refine", refine.refine, initial, disparities, views, warper,
