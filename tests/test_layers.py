@@ -171,6 +171,31 @@ def test_relabel_sends_mostly_background_near_side_pixels_back_and_nothing_neare
     # only where the views triangulate the matte (their backgrounds vary), with a confidence asked for
     info.confidence[0, 1] = 0.05
     assert softedge.relabel(disparity, index, info, planes, confidence=0.01)[1][0].tolist() == [6, 1, 6, 6, 1, 1]
+    # only where the back surface explains the plate about as well as the views agree on the front
+    info.explained = np.array([[[0.0, 0.02, 0.02, 0.0, 0.0, 0.0]], [[0.0, 0.03, 0.001, 0.0, 0.0, 0.0]]], np.float32)
+    guarded = softedge.relabel(disparity, index, info, planes, explained=1.0, floor=0.003)
+    assert guarded[1][0].tolist() == [6, 1, 6, 6, 1, 1] and guarded[2] == 1
+    assert softedge.relabel(disparity, index, info, planes, explained=1.0, floor=0.02)[2] == 2
+
+
+def test_the_views_keep_an_opaque_edge_whose_colour_alpha_fails():
+    """A textured opaque square at its true depth: if the colour model's alpha came out 0 all along its edge,
+    the unguarded relabel would move the whole near side back; the views see the square's texture at the front
+    depth consistently and not the background, so the guard moves (almost) nothing."""
+    s = _two_layer_scene()
+    warper = Warper(s.camera, s.disparities, s.shape)
+    disparity = s.gt_disparity(0.5).astype(np.float32)
+    index = layers.plane_index(disparity, s.disparities)
+    vol = layers.initial_volume(s.views, warper, s.reference, disparity, index, white=1.0)
+    _, info = softedge.soften_edges(vol, s.views, warper, s.reference, disparity, index)
+    info.alpha[info.band] = 0.0  # a colour model that failed everywhere
+    near = info.band & (index >= info.front) & (info.back < index) & (info.back >= 0)
+    assert near.sum() > 50
+    assert softedge.relabel(disparity, index, info, s.disparities)[2] == near.sum()  # unguarded: all move
+    p = softedge.SoftEdgeParams()
+    moved = softedge.relabel(disparity, index, info, s.disparities, explained=p.relabel_explained,
+                             floor=p.relabel_floor)[2]
+    assert moved < 0.05 * near.sum(), (moved, near.sum())  # measured 0 of 384
 
 
 @pytest.mark.data
@@ -187,18 +212,20 @@ def test_later_soft_edge_passes_pull_a_fattened_edge_back_to_the_matte(shared_da
     index = layers.plane_index(disparity, planes)
     true_alpha = s.reference_layers()[1][..., 3]
     errors = {}
-    for passes in (1, 8):
+    for passes, explained in ((1, 1.0), (8, 1.0), (8, 0.0)):
         vol = layers.front_volume(index, views[s.reference], len(planes))
         layers.hidden_volume(views, warper, s.reference, disparity, index, out=vol)
         layers.clamp(vol, 1.0)
         out, info, d_last = softedge.soften_edges_passes(
-            vol, views, warper, s.reference, disparity, index, params=softedge.SoftEdgeParams(passes=passes),
-            white=1.0)
+            vol, views, warper, s.reference, disparity, index,
+            params=softedge.SoftEdgeParams(passes=passes, relabel_explained=explained), white=1.0)
         assert (d_last <= disparity + 1e-6).all()  # pixels only ever move back
         hold = 1.0 - np.prod(1.0 - out[planes > 3.5, ..., 3], axis=0)
         rim = ndimage.binary_dilation(true_alpha > 0.02, iterations=4) & ~(true_alpha > 0.98)
-        errors[passes] = float(np.abs(hold - true_alpha)[rim].mean())
-    assert errors[8] < 0.85 * errors[1], errors  # measured 0.147 -> 0.101
+        errors[passes, explained] = float(np.abs(hold - true_alpha)[rim].mean())
+    # the views see the hair's texture background through the rim, so the guard lets it move
+    assert errors[8, 1.0] < 0.85 * errors[1, 1.0], errors  # measured 0.147 -> 0.098
+    assert errors[8, 0.0] < 0.85 * errors[1, 1.0], errors  # measured 0.101 unguarded
 
 
 def test_the_passes_stop_once_the_matte_settles():
@@ -220,3 +247,38 @@ def test_the_passes_stop_once_the_matte_settles():
     assert softedge.relabel(disparity, index, info1, s.disparities)[2] > 0  # the next pass would move pixels
     np.testing.assert_array_equal(one, settled)
     assert d1 is disparity and d2 is disparity
+
+
+def test_the_passes_move_no_pixel_farther_than_reach_from_the_depth_maps_edge():
+    """A square fattened by 6 px whose colour alpha we force to 0 everywhere (unguarded): without ``reach`` the
+    passes eat into the square as deep as the band goes; with ``reach=2`` no pixel farther than 2 px from the
+    depth map's original edge moves."""
+    from scipy import ndimage
+
+    s = _two_layer_scene()
+    warper = Warper(s.camera, s.disparities, s.shape)
+    disparity = ndimage.maximum_filter(s.gt_disparity(0.5), size=13).astype(np.float32)
+    index = layers.plane_index(disparity, s.disparities)
+    original = softedge._edges(index, 1)
+    real = softedge.soften_edges
+
+    def no_alpha(*args, **kwargs):
+        out, info = real(*args, **kwargs)
+        info.alpha[info.band] = 0.0
+        return out, info
+
+    depth = {}
+    for reach in (0, 2):
+        vol = layers.initial_volume(s.views, warper, s.reference, disparity, index, white=1.0)
+        params = softedge.SoftEdgeParams(relabel_explained=0.0, reach=reach)
+        softedge.soften_edges = no_alpha
+        try:
+            depth[reach] = softedge.soften_edges_passes(vol, s.views, warper, s.reference, disparity, index,
+                                                        params=params, inplace=True)[2]
+        finally:
+            softedge.soften_edges = real
+    distance = ndimage.distance_transform_cdt(~original, metric="chessboard")
+    moved = {r: depth[r] < disparity - 1e-6 for r in depth}
+    assert moved[2].any() and distance[moved[2]].max() <= 2
+    assert distance[moved[0]].max() > 2  # measured 15: 1024 pixels moved, 348 with reach=2
+    assert (depth[2] <= disparity + 1e-6).all()

@@ -378,9 +378,10 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--disparities", help="MIN:MAX[:STEP] in pixels per unit of position, inclusive (default "
                                          "0 to 5%% of the image width, step 1)")
     s.add_argument("--preset", default=DEFAULT_PRESET,
-                   help="robust (default: robust multi-view depth, hidden layers, soft edges; the best measured "
-                        "for z-keying real plates; zkey is the same), soft (robust with soft edges that follow "
-                        "the matte in up to 8 passes: hair, fur, foliage), paper (Szeliski & Golland's stages with "
+                   help="robust (default: robust multi-view depth, hidden layers, soft edges that follow the "
+                        "matte where the views agree; the best measured for z-keying real plates; zkey is the "
+                        "same), soft (robust with the matte followed everywhere: hair, fur, foliage over plain "
+                        "backgrounds), paper (Szeliski & Golland's stages with "
                         "our additions), literal (the paper as written), wta, fig6a..fig6e (the paper's "
                         "configurations)")
     s.add_argument("--dataset", help="folder with a dataset.json (views, positions, reference)")

@@ -22,14 +22,16 @@ fig6d      Fig. 6(d): lambda = (50, 1, 50)
 fig6e      Fig. 6(e): lambda = (50, 1, 100)
 robust     the default (:data:`DEFAULT_PRESET`), beyond the paper: the robust multi-view depth stage
            (:mod:`vfxstereo.depth`), the initial volume from it with hidden layers (:mod:`vfxstereo.layers`),
-           soft edges by triangulation against the backgrounds the views see (:mod:`vfxstereo.softedge`); no
-           refinement (it is Eqs. 9-13 that the paper's selection needs to fill in, not this volume)
+           soft edges by triangulation against the backgrounds the views see (:mod:`vfxstereo.softedge`), in up
+           to 8 passes that send edge pixels the matte calls background back where the views agree
+           (``SoftEdgeParams.relabel_explained``); no refinement (it is Eqs. 9-13 that the paper's selection
+           needs to fill in, not this volume)
 zkey       the same as ``robust`` (the z-keying default, by its old name; it used to be ``paper`` with edge
            matting, which measured worse than either on production-like plates)
-soft       ``robust`` with soft edges that follow the matte (``SoftEdgeParams.passes`` = 8): for hair, fur and
-           foliage, where depth maps fatten the foreground. On the z-key benchmark (82 rows) 27.27 / 20.09 dB
-           frame / band against the default's 26.68 / 19.45; on hard, opaque edges in real photographs it can
-           eat into the edge (Middlebury tsukuba's held-out view 30.3 dB against 33.7)
+soft       ``robust`` with the passes unguarded (``SoftEdgeParams.relabel_explained`` = 0): every
+           near-side edge pixel whose alpha comes out below 0.5 moves back, for hair, fur and foliage over
+           plain backgrounds, where the views cannot tell. On hard, opaque edges in real photographs it eats
+           into the edge (Middlebury tsukuba's held-out view 30.3 dB against the default's 32.8)
 =========  =====================================================================================
 
 fig6b-e differ from ``paper`` in their lambdas only.
@@ -267,7 +269,7 @@ PRESETS: dict[str, dict] = {
     "fig6e": {"lambdas": (50.0, 1.0, 100.0)},
     "robust": {"depth": "robust", "refine_iterations": 0, "soft_edges": True},
 }
-PRESETS["soft"] = {**PRESETS["robust"], "soft_edge": _softedge.SoftEdgeParams(passes=8)}
+PRESETS["soft"] = {**PRESETS["robust"], "soft_edge": _softedge.SoftEdgeParams(relabel_explained=0.0)}
 PRESETS["zkey"] = PRESETS["robust"]  # the z-keying default, by its old name
 
 DEFAULT_PRESET = "robust"

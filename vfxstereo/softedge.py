@@ -65,33 +65,51 @@ class SoftEdgeParams:
     """Alphas within this of 0 or 1 become 0 or 1 (most band pixels are clear or solid)."""
     search: int = 24
     """Farthest a foreground colour sample is looked for, px."""
-    passes: int = 1
-    """Passes at most (1, the default: one; the ``soft`` preset: 8; they stop when nothing moves). After each pass
-    (:func:`relabel`), the near-side pixels whose alpha came out below 0.5 go back to their back surface, the
-    initial volume is rebuilt from that depth and the edges are softened again: the band and the backgrounds then
-    follow the matte instead of the depth map's fattened edge. Depth maps fatten foregrounds (a window that
-    straddles an edge takes the textured side's depth), and the soft edges are only as good as the edge they start
-    from: with the true depth cut at alpha 0.5 they beat the true-depth hard key by 2.1 dB on the band (trolls_art
-    and tassels_room, K = 5), cut at 0.2 they tie it, at 0.05 they lose 2.3 dB. Pixels only ever move back, never
-    nearer. Measured on the z-key tuning scenes (mean band, K = 5 / K = 2) with every pixel below 0.5 moving: 1 pass
-    19.44 / 18.13 dB, 3 passes 20.03 / 18.46, 5 passes 20.22 / 18.74, 8 passes 20.37 / 18.85 (no scene worse by more
-    than 0.05 dB; trolls_art +2.1 / +0.9, plush_wall +3.7 / +1.5); with ``relabel_confidence=0.01``, 19.95 / 18.15.
-    Moving far-side pixels whose alpha came out above 0.5 to the front as well cost tree_cloth 0.5 dB: its far-side
-    alphas are poor where a third surface lies between the two. Each pass rebuilds the layers: on a 960x540 plate
-    with 32 planes, 5 passes (then nothing moved) took the solve from 3.9 to 8.9 s; at 1920x1080 with 64 planes,
-    from 22 to 33 s."""
+    passes: int = 8
+    """Passes at most (they stop when the matte settles: ``settle``). After each pass (:func:`relabel`), the
+    near-side pixels whose alpha came out below 0.5 go back to their back surface, the initial volume is rebuilt
+    from that depth and the edges are softened again: the band and the backgrounds then follow the matte instead
+    of the depth map's fattened edge. Depth maps fatten foregrounds (a window that straddles an edge takes the
+    textured side's depth), and the soft edges are only as good as the edge they start from: with the true depth
+    cut at alpha 0.5 they beat the true-depth hard key by 2.1 dB on the band (trolls_art and tassels_room,
+    K = 5), cut at 0.2 they tie it, at 0.05 they lose 2.3 dB. Pixels only ever move back, never nearer.
+    Measured on the z-key tuning scenes (mean band, K = 5 / K = 2) with every pixel below 0.5 moving
+    (``relabel_explained=0``): 1 pass 19.44 / 18.13 dB, 3 passes 20.03 / 18.46, 5 passes 20.22 / 18.74,
+    8 passes 20.37 / 18.85 (trolls_art +2.1 / +0.9, plush_wall +3.7 / +1.5); with the default guard, 8 passes
+    20.32 / 18.63. Moving far-side pixels whose alpha came out above 0.5 to the front as well cost tree_cloth
+    0.5 dB: its far-side alphas are poor where a third surface lies between the two. Each pass rebuilds the
+    layers (numbers in the README's speed table)."""
     settle: float = 0.001
     """The passes stop when fewer than this share of the band's pixels would move."""
     relabel_confidence: float = 0.0
     """A pixel moves back only where its views see backgrounds varying by more than this (colour^2, summed
-    over the views: ``SoftEdges.confidence``), so that the views, not the colour model alone, triangulate its
-    matte; 0: every near-side pixel below 0.5 may move. Measured with 8 passes: with 0, the z-key benchmark
-    (all 82 rows) goes from 26.68 / 19.45 to 27.27 / 20.09 dB (frame / band; held-out koala_slope +3.3 dB
-    band, artichoke_books -2.9), but Middlebury tsukuba's held-out view from 33.7 to 30.3 dB (the SGBM warp:
-    32.5) and teddy's from 31.5 to 30.5: on real photographs with hard, opaque edges the colour model's alphas
-    are noisy, and the passes eat into the edge. With 0.01, tsukuba keeps 33.5 dB, but the z-key gain is gone
-    too (26.76 / 19.41). Hence one pass by default, and 8 with 0 in the ``soft`` preset, for hair, fur and
-    foliage."""
+    over the views: ``SoftEdges.confidence``); 0: no such condition. With 0.01 (and no ``relabel_explained``),
+    Middlebury tsukuba's held-out view keeps 33.5 dB, but the z-key gain of the passes is gone (all 82 rows
+    26.76 / 19.41 dB frame / band against 26.68 / 19.45 with one pass)."""
+    relabel_explained: float = 1.0
+    """A pixel moves back only where the back surface explains the plate about as well as the views agree on
+    the front: ``|I_ref - B_ref|^2 < relabel_explained * mean_k |I_k - I_ref|^2 + relabel_floor`` (colour^2;
+    ``I_k``: what view k sees at the pixel's front depth, over the views that see it; ``SoftEdges.explained``).
+    0: every near-side pixel below 0.5 may move (the ``soft`` preset). The colour model's alpha fails on hard,
+    opaque edges in real photographs (a foreground colour sampled from the wrong object, noise), and a pass that
+    trusts it eats into the edge: Middlebury tsukuba's held-out view falls from 33.72 dB (one pass) to 30.31
+    with 8 unguarded passes, below the SGBM warp's 32.52; teddy 31.47 -> 30.49. There the views see the
+    foreground's texture consistently at the front depth, and the background does not match the plate: the
+    guard keeps those pixels (tsukuba 32.78, teddy 30.80). Through hair over a textured background the views
+    disagree at the front depth, and the pixel moves. A guard on the colour model's foreground/background
+    separation instead (move where it is large) let tsukuba fall to 30.25: the failing alphas are confident
+    ones."""
+    relabel_floor: float = 0.003
+    reach: int = 0
+    """The passes move no pixel farther than this from the depth map's original edges, px; 0: as far as the
+    matte leads (the band's ``radius`` per pass). Hair whose sparse, low-alpha ends the depth map gave the
+    hair's depth needs the distance: on the z-key tuning scenes (band, K = 5 / 2) 8 px gives 19.96 / 18.46 dB
+    and 4 px 19.75 / 18.29 against 20.32 / 18.63 unlimited (one pass: 19.44 / 18.13); trolls_art K = 5 loses
+    1.2 dB at 8 px. Hard, opaque edges in real photographs need the limit: Middlebury's held-out views with
+    8 px, tsukuba 33.24 dB and teddy 31.46 against 32.78 and 30.80 unlimited (one pass: 33.72 and 31.47)."""
+    """The noise allowance of ``relabel_explained`` (colour^2): over a plain wall both sides of the test are
+    near 0 and the matte decides. 0.001: tuning band 20.17 / 18.56 dB (K = 5 / 2), tsukuba 32.90; 0.003:
+    20.32 / 18.63, tsukuba 32.78; none: 20.13 / 18.42, tsukuba 33.34."""
 
     def __post_init__(self):
         if self.radius < 1 or self.dilate < 0 or self.search < 1 or not 0 <= self.snap < 0.5 or self.passes < 1:
@@ -167,6 +185,7 @@ class SoftEdges:
     front: np.ndarray  # (H, W) int32 front plane, -1 outside
     back: np.ndarray  # (H, W) int32 back plane, -1 outside
     confidence: np.ndarray  # (H, W) float32 background variation across the views
+    explained: np.ndarray | None = None  # (2, H, W) float32 |I_ref - B_ref|^2 and mean_k |I_k - I_ref|^2 at the front
     estimates: dict | None = None  # per band pixel: "views", "colour", "separation", "residual" (N,)
 
 
@@ -322,6 +341,15 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     info.front[ys, xs] = f
     info.back[ys, xs] = b
     info.confidence[ys, xs] = var_b
+    # how well the back surface explains the plate, against how consistently the views see it at the front
+    others = ok.copy()
+    others[reference] = False
+    n_o = others.sum(axis=0)
+    e_front = np.where(n_o > 0, (((I - I0[None]) ** 2).sum(axis=2) * others).sum(axis=0) / np.maximum(n_o, 1), np.inf)
+    e_back = ((I0 - B[reference]) ** 2).sum(axis=1)
+    info.explained = np.full((2, h, w), np.nan, np.float32)
+    info.explained[0, ys, xs] = e_back
+    info.explained[1, ys, xs] = e_front
     info.estimates = {"views": a_views, "colour": np.where(have_c, a_colour, np.nan), "separation": sep,
                       "residual": resid, "prior": prior}
     report(progress, "soft-edges", 1, 1)
@@ -349,9 +377,15 @@ def soften_edges_passes(volume: np.ndarray, views: np.ndarray, warper, reference
     p = params or SoftEdgeParams()
     out, info = soften_edges(volume, views, warper, reference, disparity, index, params=p, gains=gains,
                              zbuffers=zbuffers, progress=progress, inplace=inplace, planes=planes)
+    within = None
+    if p.reach > 0:
+        step = float(np.median(np.diff(warper.disparities))) if len(warper.disparities) > 1 else 1.0
+        within = ndimage.binary_dilation(_edges(index, max(1, int(np.ceil(p.jump / step - 1e-9)))),
+                                         iterations=p.reach)
     for _ in range(p.passes - 1):
         moved_d, moved_i, moved = relabel(disparity, index, info, warper.disparities,
-                                          confidence=p.relabel_confidence)
+                                          confidence=p.relabel_confidence, explained=p.relabel_explained,
+                                          floor=p.relabel_floor, within=within)
         if not moved or moved < p.settle * info.band.sum():
             break
         disparity, index = moved_d, moved_i
@@ -364,20 +398,28 @@ def soften_edges_passes(volume: np.ndarray, views: np.ndarray, warper, reference
 
 
 def relabel(disparity: np.ndarray, index: np.ndarray, info: SoftEdges, disparities: np.ndarray,
-            threshold: float = 0.5, confidence: float = 0.0) -> tuple[np.ndarray, np.ndarray, int]:
+            threshold: float = 0.5, confidence: float = 0.0, explained: float = 0.0,
+            floor: float = 0.0, within: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, int]:
     """The depth map with the near-side band pixels whose alpha is below ``threshold`` moved to their back plane.
 
     A near-side pixel (on the front surface of its edge) whose matte says it is mostly background belongs to
     the surface behind it: the one :func:`soften_edges` composited it over, a plane the depth map has there
-    (the nearest hidden cell behind it, or the farthest surface around). Only pixels whose views see
-    backgrounds varying by more than ``confidence`` (``SoftEdges.confidence``, colour^2) move: there the views
-    triangulate the matte. Nothing moves nearer. Returns ``(disparity, index, moved)``; the inputs are not
+    (the nearest hidden cell behind it, or the farthest surface around). With ``confidence``, only pixels whose
+    views see backgrounds varying by more than it (``SoftEdges.confidence``, colour^2) move; with
+    ``explained``, only pixels whose plate the back surface explains about as well as the views agree on the
+    front (``SoftEdges.explained``: ``|I - B|^2 < explained * spread + floor``; see
+    :class:`SoftEdgeParams`). Nothing moves nearer. Returns ``(disparity, index, moved)``; the inputs are not
     modified.
     """
     near = info.band & (info.front >= 0) & (index >= info.front) & (info.back >= 0)
     move = near & (np.nan_to_num(info.alpha, nan=1.0) < threshold) & (info.back < index)
     if confidence > 0:
         move &= info.confidence > confidence
+    if explained > 0 and info.explained is not None:
+        eb, ef = np.nan_to_num(info.explained, nan=np.inf)
+        move &= eb < explained * ef + floor
+    if within is not None:
+        move &= within
     n = int(move.sum())
     if n == 0:
         return disparity, index, 0
