@@ -139,7 +139,7 @@ def test_the_background_image_is_the_background_where_a_view_sees_it():
 def test_soft_edge_settings_that_cannot_work_are_refused():
     from vfxstereo.errors import VfxStereoError
 
-    for bad in ({"radius": 0}, {"dilate": -1}, {"snap": 0.5}):
+    for bad in ({"radius": 0}, {"dilate": -1}, {"snap": 0.5}, {"reach": -1}, {"relabel_floor": -0.1}):
         with pytest.raises(VfxStereoError, match="soft edges"):
             softedge.SoftEdgeParams(**bad)
 

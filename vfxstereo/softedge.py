@@ -112,8 +112,10 @@ class SoftEdgeParams:
     20.32 / 18.63, tsukuba 32.78; none: 20.13 / 18.42, tsukuba 33.34."""
 
     def __post_init__(self):
-        if self.radius < 1 or self.dilate < 0 or self.search < 1 or not 0 <= self.snap < 0.5 or self.passes < 1:
-            raise VfxStereoError("soft edges: radius >= 1, dilate >= 0, search >= 1, 0 <= snap < 0.5, passes >= 1")
+        if (self.radius < 1 or self.dilate < 0 or self.search < 1 or not 0 <= self.snap < 0.5 or self.passes < 1
+                or self.reach < 0 or self.relabel_explained < 0 or self.relabel_floor < 0):
+            raise VfxStereoError("soft edges: radius >= 1, dilate >= 0, search >= 1, 0 <= snap < 0.5, passes >= 1, "
+                                 "reach >= 0, relabel_explained >= 0, relabel_floor >= 0")
 
 
 def _sample(img: np.ndarray, X: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -232,9 +234,9 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     D = len(d)
     held = np.arange(D) if planes is None else np.asarray(planes, np.int64)
     slot = slots(planes, D)
-    step = float(np.median(np.diff(d))) if D > 1 else 1.0
+    step = _step(d)
     tol = 2.0 * step if tolerance is None else float(tolerance)
-    jump = max(1, int(np.ceil(p.jump / step - 1e-9)))
+    jump = _jump_planes(p, d)
     size = 2 * p.radius + 1
     fmax = ndimage.maximum_filter(index, size=size)
     fmin = ndimage.minimum_filter(index, size=size)
@@ -383,10 +385,8 @@ def soften_edges_passes(volume: np.ndarray, views: np.ndarray, warper, reference
     out, info = soften_edges(volume, views, warper, reference, disparity, index, params=p, gains=gains,
                              zbuffers=zbuffers, progress=progress, inplace=inplace, planes=planes)
     within = None
-    if p.reach > 0:
-        step = float(np.median(np.diff(warper.disparities))) if len(warper.disparities) > 1 else 1.0
-        within = ndimage.binary_dilation(_edges(index, max(1, int(np.ceil(p.jump / step - 1e-9)))),
-                                         iterations=p.reach)
+    if p.reach > 0:  # the original depth map's edges, grown by reach
+        within = ndimage.binary_dilation(_edges(index, _jump_planes(p, warper.disparities)), iterations=p.reach)
     for _ in range(p.passes - 1):
         moved_d, moved_i, moved = relabel(disparity, index, info, warper.disparities,
                                           confidence=p.relabel_confidence, explained=p.relabel_explained,
@@ -413,8 +413,8 @@ def relabel(disparity: np.ndarray, index: np.ndarray, info: SoftEdges, dispariti
     views see backgrounds varying by more than it (``SoftEdges.confidence``, colour^2) move; with
     ``explained``, only pixels whose plate the back surface explains about as well as the views agree on the
     front (``SoftEdges.explained``: ``|I - B|^2 < explained * spread + floor``; see
-    :class:`SoftEdgeParams`). Nothing moves nearer. Returns ``(disparity, index, moved)``; the inputs are not
-    modified.
+    :class:`SoftEdgeParams`); with ``within`` (bool, H x W), only pixels inside it. Nothing moves nearer.
+    Returns ``(disparity, index, moved)``; the inputs are not modified.
     """
     near = info.band & (info.front >= 0) & (index >= info.front) & (info.back >= 0)
     move = near & (np.nan_to_num(info.alpha, nan=1.0) < threshold) & (info.back < index)
@@ -433,6 +433,16 @@ def relabel(disparity: np.ndarray, index: np.ndarray, info: SoftEdges, dispariti
     disparity[move] = np.asarray(disparities, np.float32)[info.back[move]]
     index[move] = info.back[move]
     return disparity, index, n
+
+
+def _step(disparities: np.ndarray) -> float:
+    """The planes' spacing (1 for a single plane)."""
+    return float(np.median(np.diff(disparities))) if len(disparities) > 1 else 1.0
+
+
+def _jump_planes(p: SoftEdgeParams, disparities: np.ndarray) -> int:
+    """``p.jump`` (px per view step) in planes: the smallest plane difference that makes an edge."""
+    return max(1, int(np.ceil(p.jump / _step(disparities) - 1e-9)))
 
 
 def _edges(index: np.ndarray, jump: int) -> np.ndarray:
