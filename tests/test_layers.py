@@ -282,3 +282,19 @@ def test_the_passes_move_no_pixel_farther_than_reach_from_the_depth_maps_edge():
     assert moved[2].any() and distance[moved[2]].max() <= 2
     assert distance[moved[0]].max() > 2  # measured 15: 1024 pixels moved, 348 with reach=2
     assert (depth[2] <= disparity + 1e-6).all()
+
+
+def test_a_volume_rebuilt_in_place_equals_a_new_one():
+    """front_volume and initial_volume into a volume that held another depth map's layers (cleared block by
+    block where something was written) give exactly the new volume."""
+    s = _two_layer_scene()
+    warper = Warper(s.camera, s.disparities, s.shape)
+    disparity = s.gt_disparity(0.5).astype(np.float32)
+    index = layers.plane_index(disparity, s.disparities)
+    other = np.where(index > 0, 2, 0)  # a different depth map, on other planes
+    dirty = layers.initial_volume(s.views, warper, s.reference, s.disparities[other].astype(np.float32), other)
+    dirty[1, 5:9, 3:40] = 7.0  # and stray values elsewhere
+    fresh = layers.initial_volume(s.views, warper, s.reference, disparity, index)
+    again = layers.initial_volume(s.views, warper, s.reference, disparity, index, out=dirty)
+    assert again is dirty
+    np.testing.assert_array_equal(again, fresh)

@@ -334,16 +334,25 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     C = np.clip(C + a * (I0 - C - (1.0 - a) * B0), 0.0, white * a)
     with np.errstate(divide="ignore", invalid="ignore"):
         B0 = np.where(a < 1.0, np.clip((I0 - C) / (1.0 - a), 0.0, white), B0)
-    between = (held[:, None] > b[None]) & (held[:, None] < f[None])  # (layers, N) cleared
-    cols = out[:, ys, xs]  # (layers, N, 4)
-    cols[between] = 0.0
     if (slot[f] < 0).any() or (slot[b] < 0).any():
         raise VfxStereoError("soften_edges: an edge lies on a plane the volume does not hold")
-    cols[slot[f], np.arange(N), :3] = C
-    cols[slot[f], np.arange(N), 3] = alpha
-    cols[slot[b], np.arange(N), :3] = B0
-    cols[slot[b], np.arange(N), 3] = 1.0
-    out[:, ys, xs] = cols
+    # plane by plane, writing only the cells that change: the volume is allocated lazily (np.zeros), and
+    # writing every plane at every band pixel made its empty planes resident (at 4096x2160 x 64, 5.8 GiB)
+    sf, sb = slot[f], slot[b]
+    for layer, plane in enumerate(held):
+        clear = (plane > b) & (plane < f)  # cells between the back and the front surface are cleared
+        if clear.any():
+            cy, cx = ys[clear], xs[clear]
+            full = out[layer, cy, cx].any(axis=1)
+            out[layer, cy[full], cx[full]] = 0.0
+        on = sf == layer
+        if on.any():
+            out[layer, ys[on], xs[on], :3] = C[on]
+            out[layer, ys[on], xs[on], 3] = alpha[on]
+        on = sb == layer
+        if on.any():
+            out[layer, ys[on], xs[on], :3] = B0[on]
+            out[layer, ys[on], xs[on], 3] = 1.0
     info.alpha[ys, xs] = alpha
     info.front[ys, xs] = f
     info.back[ys, xs] = b
