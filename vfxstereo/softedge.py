@@ -100,6 +100,9 @@ class SoftEdgeParams:
     separation instead (move where it is large) let tsukuba fall to 30.25: the failing alphas are confident
     ones."""
     relabel_floor: float = 0.003
+    """The noise allowance of ``relabel_explained`` (colour^2): over a plain wall both sides of the test are
+    near 0 and the matte decides. 0.001: tuning band 20.17 / 18.56 dB (K = 5 / 2), tsukuba 32.90; 0.003:
+    20.32 / 18.63, tsukuba 32.78; none: 20.13 / 18.42, tsukuba 33.34."""
     reach: int = 0
     """The passes move no pixel farther than this from the depth map's original edges, px; 0: as far as the
     matte leads (the band's ``radius`` per pass). Hair whose sparse, low-alpha ends the depth map gave the
@@ -107,9 +110,6 @@ class SoftEdgeParams:
     and 4 px 19.75 / 18.29 against 20.32 / 18.63 unlimited (one pass: 19.44 / 18.13); trolls_art K = 5 loses
     1.2 dB at 8 px. Hard, opaque edges in real photographs need the limit: Middlebury's held-out views with
     8 px, tsukuba 33.24 dB and teddy 31.46 against 32.78 and 30.80 unlimited (one pass: 33.72 and 31.47)."""
-    """The noise allowance of ``relabel_explained`` (colour^2): over a plain wall both sides of the test are
-    near 0 and the matte decides. 0.001: tuning band 20.17 / 18.56 dB (K = 5 / 2), tsukuba 32.90; 0.003:
-    20.32 / 18.63, tsukuba 32.78; none: 20.13 / 18.42, tsukuba 33.34."""
 
     def __post_init__(self):
         if (self.radius < 1 or self.dilate < 0 or self.search < 1 or not 0 <= self.snap < 0.5 or self.passes < 1
