@@ -84,6 +84,24 @@ def test_the_flat_bias_pushes_only_flat_pixels_back():
     assert (np.argmin(cost[:, 35:], axis=2) == 3).all()
 
 
+def test_the_flat_window_lets_the_bias_reach_the_plain_wall_next_to_a_textured_object():
+    """A flat strip 8 px wide beside a textured block: averaged over 31 px the block's cost gap swamps the strip and
+    it gets almost no bias; over the 9 px default it gets most of it."""
+    cost = np.zeros((40, 60, 5), np.float32)
+    cost[:, 8:, 3] = -1.0  # texture from column 8 on: plane 3
+    d = np.arange(5.0)
+    weight = {}
+    for window in (31, 9):
+        c = cost.copy()
+        depth.flat_bias(c, d, 0.5, 0.04, window=window)
+        weight[window] = float(c[20, 2, 4] - c[20, 2, 0]) / 0.5  # the strip's bias ramp, as a share of the most
+    assert weight[31] < 0.05 < 0.5 < weight[9], weight
+    from vfxstereo.errors import VfxStereoError
+
+    with pytest.raises(VfxStereoError, match="flat_window"):
+        depth.DepthConfig(flat_window=0)
+
+
 @pytest.mark.data
 def test_a_tsukuba_crop_is_below_its_bound(shared_data):
     from vfxstereo.io.plates import load_dataset
