@@ -139,7 +139,8 @@ def test_the_background_image_is_the_background_where_a_view_sees_it():
 def test_soft_edge_settings_that_cannot_work_are_refused():
     from vfxstereo.errors import VfxStereoError
 
-    for bad in ({"radius": 0}, {"dilate": -1}, {"snap": 0.5}, {"reach": -1}, {"relabel_floor": -0.1}):
+    for bad in ({"radius": 0}, {"dilate": -1}, {"snap": 0.5}, {"reach": -1}, {"relabel_floor": -0.1},
+                {"relabel_radius": -1}):
         with pytest.raises(VfxStereoError, match="soft edges"):
             softedge.SoftEdgeParams(**bad)
 
@@ -298,3 +299,51 @@ def test_a_volume_rebuilt_in_place_equals_a_new_one():
     again = layers.initial_volume(s.views, warper, s.reference, disparity, index, out=dirty)
     assert again is dirty
     np.testing.assert_array_equal(again, fresh)
+
+
+def _holed_square_scene():
+    """A textured orange square (d = 6) with a 10 x 10 hole at its middle, over a plain wall (d = 1); K = 5."""
+    from vfxstereo import zkey_scenes as scenes
+
+    rng = np.random.default_rng(3)
+    canvas = (72 + 2 * 16, 96 + 2 * 16)
+    wall = scenes.painted_wall(canvas, (0.5, 0.48, 0.42), rng)
+    tex = np.stack([rng.uniform(0.55, 0.95, (44, 44)), rng.uniform(0.2, 0.45, (44, 44)),
+                    rng.uniform(0.02, 0.15, (44, 44))], axis=-1).astype(np.float32)
+    square = scenes.opaque(tex)
+    square[17:27, 17:27] = 0.0  # the hole: more than the band's 8 px from the square's outline
+    layers_ = [scenes.PlanarLayer("wall", scenes.opaque(wall), 1.0),
+               scenes.PlanarLayer("square", scenes.place(square, canvas, 16 + 14, 16 + 26), 6.0)]
+    return scenes.Scene("holed square", layers_, positions=np.arange(-2.0, 3.0), reference=2, margin=16,
+                        gains=np.ones(5))
+
+
+def test_relabel_radius_opens_a_hole_the_depth_map_filled_and_writes_nothing_outside_the_band():
+    """A depth map that filled the square's hole with the square's depth (what window matching does over a plain
+    wall): the band of 8 px around the square's outline never reaches the hole, so the passes leave it; with
+    ``relabel_radius`` the hole's pixels are matted against the wall, move back, and the passes open it. The
+    square's textured pixels stay, and a pass writes no cell outside its band."""
+    s = _holed_square_scene()
+    views = s.views()
+    planes = np.arange(0.0, 8.5, 0.5)
+    warper = Warper(Camera.from_positions(s.positions, s.reference), planes, s.shape)
+    truth = s.gt_disparity(0.5)
+    hole = np.zeros(s.shape, bool)
+    hole[14 + 17:14 + 27, 26 + 17:26 + 27] = True
+    assert (truth[hole] == 1.0).all()
+    disparity = np.where(hole, np.float32(6.0), truth).astype(np.float32)  # the hole filled in
+    index = layers.plane_index(disparity, planes)
+    square = (disparity == 6.0) & ~hole
+    final = {}
+    for rr in (0, 24):
+        params = softedge.SoftEdgeParams(relabel_radius=rr)
+        vol = layers.initial_volume(views, warper, s.reference, disparity, index, white=1.0)
+        first, info = softedge.soften_edges(vol, views, warper, s.reference, disparity, index, params=params)
+        written = softedge.soften_edges(vol, views, warper, s.reference, disparity, index,
+                                        params=softedge.SoftEdgeParams(relabel_radius=0))[1].band
+        np.testing.assert_array_equal(first[:, ~written], vol[:, ~written])  # outside the 8 px band: untouched
+        final[rr] = softedge.soften_edges_passes(vol, views, warper, s.reference, disparity, index,
+                                                 params=params, white=1.0)[2]
+    assert not (final[0][hole] < 6.0).any()  # without it, the hole stays filled
+    assert (final[24][hole] == 1.0).mean() > 0.9, (final[24][hole] == 1.0).mean()
+    assert (final[24][square] == 6.0).mean() > 0.98  # the square itself stays where it is

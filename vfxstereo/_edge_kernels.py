@@ -62,13 +62,14 @@ def stack_checks(cells, white):
 
 
 @njit(cache=True, nogil=True)
-def colour_alpha(ys, xs, fplane, index, solid, plate, background, max_steps, alpha_out, sep_out, dist_out):
+def colour_alpha(ys, xs, fplane, index, solid, plate, background, max_steps, tie, alpha_out, sep_out, dist_out):
     """Alpha of band pixel n from the plate and its background, with the foreground colour sampled nearby.
 
     For each of 8 directions, the nearest ``solid`` pixel (at most ``max_steps`` away) whose plane ``index``
     equals the pixel's front plane ``fplane[n]`` is a foreground sample F. With the background B of the pixel,
     ``alpha = clip((I - B) . (F - B) / |F - B|^2, 0, 1)`` and the sample that explains the plate best
-    (least ``|I - alpha F - (1 - alpha) B|^2``) wins. Outputs alpha, ``|F - B|^2`` (how well colour separates
+    (least ``|I - alpha F - (1 - alpha) B|^2``) wins; of samples within ``tie[n]`` of each other, the one that
+    separates the layers best (largest ``|F - B|^2``). Outputs alpha, ``|F - B|^2`` (how well colour separates
     the layers) and the residual; -1 alpha where no sample was found.
     """
     H, W = index.shape
@@ -106,8 +107,8 @@ def colour_alpha(ys, xs, fplane, index, solid, plate, background, max_steps, alp
             for c in range(3):
                 e = plate[y, x, c] - a * plate[yy, xx, c] - (1.0 - a) * background[n, c]
                 dist += e * e
-            if dist < best:
-                best = dist
+            if dist < best - tie[n] or (dist < best + tie[n] and den > sep_out[n]):
+                best = min(dist, best)
                 alpha_out[n] = a
                 sep_out[n] = den
                 dist_out[n] = dist

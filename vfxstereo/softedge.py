@@ -26,6 +26,10 @@ far side of a jump gets the nearest surface around it as its front plane f and i
 the near side keeps its plane as f and takes, as b, the nearest hidden plane behind it, or the farthest
 surface around.
 
+Near-side pixels farther from the jump, up to ``relabel_radius`` px, are matted the same way but never written:
+a pixel the matte puts clear of the foreground moves back, and the next pass's band takes it in. That is how a
+hole the depth map filled (a plain wall seen through wicker) opens, pass by pass from its rim.
+
 The result replaces the band's cells: the front cell gets (C, alpha) with ``C = I_ref - (1 - alpha) B_ref``
 (so the reference view is reproduced), the back cell the background colour, opaque, and cells between them
 are cleared.
@@ -103,6 +107,21 @@ class SoftEdgeParams:
     """The noise allowance of ``relabel_explained`` (colour^2): over a plain wall both sides of the test are
     near 0 and the matte decides. 0.001: tuning band 20.17 / 18.56 dB (K = 5 / 2), tsukuba 32.90; 0.003:
     20.32 / 18.63, tsukuba 32.78; none: 20.13 / 18.42, tsukuba 33.34."""
+    relabel_radius: int = 32
+    """Near-side pixels up to this far from a depth jump (px) are matted too, only to decide whether they move
+    back (:func:`relabel`); their cells are written once a pass has moved them into the band of ``radius``.
+    0 (or not above ``radius``): the band alone. Window matching fills a hole in a foreground (wicker, a fence,
+    a canopy) with the foreground's depth where the wall behind is plain: no view sees the wall through the
+    hole, and nothing in the views tells the two depths apart, so only colour can open it -- the hole's
+    pixels are the wall's colour and far from the foreground's. Of their foreground samples, the one that
+    separates best decides (``OUTER_TIE``): the hole's own pixels, also on the front plane, would explain them
+    as well. Measured on the z-key tuning scenes (frame / band dB, K = 5 and 2 together): 0: 27.84 / 19.70;
+    16: 27.95 / 19.82; 24: 28.06 / 19.97; 32: 28.56 / 21.05 (wicker_wall K = 2 28.19 / 19.40 -> 35.68 /
+    27.64; its centred-card rows, ties with the SGBM key, now win). The price is a foreground patch coloured
+    like the plain wall behind it: the white of trolls_art's eye opens (K = 5 frame 31.13 -> 28.07, still
+    above the SGBM key's 22.19), and Middlebury's held-out views lose some: tsukuba 32.86 -> 32.20 dB (the
+    SGBM warp: 32.52), Midd1 39.36 -> 38.72, teddy 30.80 -> 30.87. Requiring that some view sees the
+    background there (not a colour filled in) keeps the eye, and loses the whole gain."""
     reach: int = 0
     """The passes move no pixel farther than this from the depth map's original edges, px; 0: as far as the
     matte leads (the band's ``radius`` per pass). Hair whose sparse, low-alpha ends the depth map gave the
@@ -113,9 +132,9 @@ class SoftEdgeParams:
 
     def __post_init__(self):
         if (self.radius < 1 or self.dilate < 0 or self.search < 1 or not 0 <= self.snap < 0.5 or self.passes < 1
-                or self.reach < 0 or self.relabel_explained < 0 or self.relabel_floor < 0):
+                or self.reach < 0 or self.relabel_radius < 0 or self.relabel_explained < 0 or self.relabel_floor < 0):
             raise VfxStereoError("soft edges: radius >= 1, dilate >= 0, search >= 1, 0 <= snap < 0.5, passes >= 1, "
-                                 "reach >= 0, relabel_explained >= 0, relabel_floor >= 0")
+                                 "reach >= 0, relabel_radius >= 0, relabel_explained >= 0, relabel_floor >= 0")
 
 
 def _sample(img: np.ndarray, X: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -178,11 +197,15 @@ def background_image(views: np.ndarray, warper, plane: int, disparity: np.ndarra
     return fill_colour(rgb, seen), seen
 
 
+OUTER_TIE = 1e-4
+"""Residuals (colour^2) within which two foreground samples of an outer pixel (``relabel_radius``) count as equal."""
+
+
 @dataclass
 class SoftEdges:
     """What :func:`soften_edges` decided, for diagnostics."""
 
-    band: np.ndarray  # (H, W) bool
+    band: np.ndarray  # (H, W) bool: the pixels matted (the written band and the outer pixels, relabel_radius)
     alpha: np.ndarray  # (H, W) float32, NaN outside the band
     front: np.ndarray  # (H, W) int32 front plane, -1 outside
     back: np.ndarray  # (H, W) int32 back plane, -1 outside
@@ -242,7 +265,14 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     fmin = ndimage.minimum_filter(index, size=size)
     far_side = fmax - index >= jump
     near_side = ~far_side & (index - fmin >= jump)
-    band = far_side | near_side
+    written = far_side | near_side
+    band = written
+    if p.relabel_radius > p.radius:  # near-side pixels farther out: matted only to decide whether they move back
+        size = 2 * p.relabel_radius + 1
+        fmin = np.where(written, fmin, ndimage.minimum_filter(index, size=size))
+        outer = ~written & (index - fmin >= jump) & (ndimage.maximum_filter(index, size=size) - index < jump)
+        near_side = near_side | outer
+        band = written | outer
     out = volume if inplace else volume.copy()
     info = SoftEdges(band=band, alpha=np.full((h, w), np.nan, np.float32), front=np.full((h, w), -1, np.int32),
                      back=np.full((h, w), -1, np.int32), confidence=np.zeros((h, w), np.float32))
@@ -258,8 +288,11 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     ys, xs = np.nonzero(band)
     f, b = f_plane[ys, xs], b_plane[ys, xs]
     # sub-pixel depths of the two surfaces: strands are a pixel wide, so registration matters
-    near = ndimage.maximum_filter(disparity, size=size)
-    far = np.where(nearest_hidden >= 0, d[np.maximum(nearest_hidden, 0)], ndimage.minimum_filter(disparity, size=size))
+    near = ndimage.maximum_filter(disparity, size=2 * p.radius + 1)
+    far_around = ndimage.minimum_filter(disparity, size=2 * p.radius + 1)
+    if band is not written:
+        far_around = np.where(written, far_around, ndimage.minimum_filter(disparity, size=size))
+    far = np.where(nearest_hidden >= 0, d[np.maximum(nearest_hidden, 0)], far_around)
     d_front = np.where(far_side, near, disparity)[ys, xs].astype(np.float64)
     d_back = np.where(far_side, disparity, far)[ys, xs].astype(np.float64)
     # the backgrounds, one image per back plane in use
@@ -309,10 +342,13 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     solid = ~core
     plate = np.ascontiguousarray(views[reference], np.float32)
     a_colour = np.empty(N, np.float32)
+    # an outer pixel inside a filled-in hole has hole pixels around it as foreground samples too, which explain
+    # it as well as any: of the samples that explain it about equally, the one that separates best decides
     sep = np.empty(N, np.float32)
     resid = np.empty(N, np.float32)
+    tie = np.zeros(N, np.float32) if band is written else np.where(written[ys, xs], 0.0, OUTER_TIE).astype(np.float32)
     _edge_kernels.colour_alpha(ys.astype(np.int64), xs.astype(np.int64), f, index, solid, plate,
-                               np.ascontiguousarray(B[reference]), int(p.search), a_colour, sep, resid)
+                               np.ascontiguousarray(B[reference]), int(p.search), tie, a_colour, sep, resid)
     have_c = a_colour >= 0
     prior = (index[ys, xs] >= f).astype(np.float32)
     wv_ = p.w_views * var_b
@@ -339,8 +375,12 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     # plane by plane, writing only the cells that change: the volume is allocated lazily (np.zeros), and
     # writing every plane at every band pixel made its empty planes resident (at 4096x2160 x 64, 5.8 GiB)
     sf, sb = slot[f], slot[b]
+    if band is not written:  # the outer pixels' cells stay as they are
+        keep = written[ys, xs]
+        sf, sb = np.where(keep, sf, -1), np.where(keep, sb, -1)
+    b_clear = b if band is written else np.where(keep, b, f)  # nothing cleared in front of the outer pixels
     for layer, plane in enumerate(held):
-        clear = (plane > b) & (plane < f)  # cells between the back and the front surface are cleared
+        clear = (plane > b_clear) & (plane < f)  # cells between the back and the front surface are cleared
         if clear.any():
             cy, cx = ys[clear], xs[clear]
             full = out[layer, cy, cx].any(axis=1)
