@@ -301,13 +301,14 @@ def test_a_volume_rebuilt_in_place_equals_a_new_one():
     np.testing.assert_array_equal(again, fresh)
 
 
-def _holed_square_scene():
+def _holed_square_scene(textured_wall=False):
     """A textured orange square (d = 6) with a 10 x 10 hole at its middle, over a plain wall (d = 1); K = 5."""
     from vfxstereo import zkey_scenes as scenes
 
     rng = np.random.default_rng(3)
     canvas = (72 + 2 * 16, 96 + 2 * 16)
-    wall = scenes.painted_wall(canvas, (0.5, 0.48, 0.42), rng)
+    wall = (rng.uniform(0.2, 0.8, canvas + (3,)).astype(np.float32) if textured_wall
+            else scenes.painted_wall(canvas, (0.5, 0.48, 0.42), rng))
     tex = np.stack([rng.uniform(0.55, 0.95, (44, 44)), rng.uniform(0.2, 0.45, (44, 44)),
                     rng.uniform(0.02, 0.15, (44, 44))], axis=-1).astype(np.float32)
     square = scenes.opaque(tex)
@@ -339,11 +340,40 @@ def test_relabel_radius_opens_a_hole_the_depth_map_filled_and_writes_nothing_out
         params = softedge.SoftEdgeParams(relabel_radius=rr)
         vol = layers.initial_volume(views, warper, s.reference, disparity, index, white=1.0)
         first, info = softedge.soften_edges(vol, views, warper, s.reference, disparity, index, params=params)
-        written = softedge.soften_edges(vol, views, warper, s.reference, disparity, index,
-                                        params=softedge.SoftEdgeParams(relabel_radius=0))[1].band
-        np.testing.assert_array_equal(first[:, ~written], vol[:, ~written])  # outside the 8 px band: untouched
+        np.testing.assert_array_equal(first[:, ~info.band], vol[:, ~info.band])  # outside the 8 px band: untouched
+        if rr:
+            assert info.outer[hole].all() and not (info.outer & info.band).any()
         final[rr] = softedge.soften_edges_passes(vol, views, warper, s.reference, disparity, index,
                                                  params=params, white=1.0)[2]
+        if rr:  # over the plain wall, outer pixels are put clear of the square
+            assert (info.alpha[info.outer] == 0).sum() > 20
     assert not (final[0][hole] < 6.0).any()  # without it, the hole stays filled
     assert (final[24][hole] == 1.0).mean() > 0.9, (final[24][hole] == 1.0).mean()
     assert (final[24][square] == 6.0).mean() > 0.98  # the square itself stays where it is
+
+
+def test_outer_pixels_move_only_over_a_plain_background():
+    """Over a random-dot wall the colour filled in behind the square is a guess: no outer pixel is put clear. The
+    variance is that of the background the views see, not of the filled-in (smoothed) colour."""
+    s = _holed_square_scene(textured_wall=True)
+    views = s.views()
+    planes = np.arange(0.0, 8.5, 0.5)
+    warper = Warper(Camera.from_positions(s.positions, s.reference), planes, s.shape)
+    truth = s.gt_disparity(0.5)
+    hole = np.zeros(s.shape, bool)
+    hole[14 + 17:14 + 27, 26 + 17:26 + 27] = True
+    disparity = np.where(hole, np.float32(6.0), truth).astype(np.float32)  # the hole filled in
+    index = layers.plane_index(disparity, planes)
+    vol = layers.initial_volume(views, warper, s.reference, disparity, index, white=1.0)
+    _, info = softedge.soften_edges(vol, views, warper, s.reference, disparity, index)
+    assert info.outer.sum() > 100 and (info.alpha[info.outer] == 1).all()
+    # the variance of what is seen: a plain half and a random half, the random half's pixels marked unseen
+    rng = np.random.default_rng(0)
+    img = np.full((40, 40, 3), 0.5, np.float32)
+    img[:, 20:] = rng.uniform(0, 1, (40, 20, 3))
+    seen = np.ones((40, 40), bool)
+    ys, xs = np.array([20, 20]), np.array([5, 34])
+    v = softedge._seen_variance(img, seen, ys, xs, 9)
+    assert v[0] < 1e-6 < 0.05 < v[1]
+    seen[:, 20:] = False  # filled in: left out
+    assert softedge._seen_variance(img, seen, ys, xs, 9)[1] == np.inf

@@ -115,13 +115,15 @@ class SoftEdgeParams:
     hole, and nothing in the views tells the two depths apart, so only colour can open it -- the hole's
     pixels are the wall's colour and far from the foreground's. Of their foreground samples, the one that
     separates best decides (``OUTER_TIE``): the hole's own pixels, also on the front plane, would explain them
-    as well. Measured on the z-key tuning scenes (frame / band dB, K = 5 and 2 together): 0: 27.84 / 19.70;
-    16: 27.95 / 19.82; 24: 28.06 / 19.97; 32: 28.56 / 21.05 (wicker_wall K = 2 28.19 / 19.40 -> 35.68 /
-    27.64; its centred-card rows, ties with the SGBM key, now win). The price is a foreground patch coloured
-    like the plain wall behind it: the white of trolls_art's eye opens (K = 5 frame 31.13 -> 28.07, still
-    above the SGBM key's 22.19), and Middlebury's held-out views lose some: tsukuba 32.86 -> 32.20 dB (the
-    SGBM warp: 32.52), Midd1 39.36 -> 38.72, teddy 30.80 -> 30.87. Requiring that some view sees the
-    background there (not a colour filled in) keeps the eye, and loses the whole gain."""
+    as well. An outer pixel moves only where the background the views see around it is plain
+    (``OUTER_PLAIN``): over a textured one, the colour filled in behind the foreground is a guess.
+    Measured on the z-key tuning scenes (frame / band dB, K = 5 and 2 together): 0: 27.84 / 19.70; 32:
+    28.43 / 20.38, no scene worse (wicker_wall K = 2 28.19 / 19.40 -> 32.65 / 24.20, K = 5 27.06 / 18.94 ->
+    30.20 / 22.79, its centred-card rows, ties with the SGBM key, now win; fur_grey_wall K = 5 band 15.96 ->
+    16.48, its tied rows win). 16 and 24 px gain less (27.95 / 19.82, 28.06 / 19.97, without the plain test).
+    Without the plain test, 32 px: 28.56 / 21.05, but the white of trolls_art's eye opened (K = 5 frame 31.13
+    -> 28.07), Middlebury tsukuba's held-out view lost 0.66 dB (to 32.20, below the SGBM warp's 32.52), and the
+    speed benchmark's random-dot plate moved pixels on all 8 passes (HD soft edges 6 -> 22 s)."""
     reach: int = 0
     """The passes move no pixel farther than this from the depth map's original edges, px; 0: as far as the
     matte leads (the band's ``radius`` per pass). Hair whose sparse, low-alpha ends the depth map gave the
@@ -197,6 +199,32 @@ def background_image(views: np.ndarray, warper, plane: int, disparity: np.ndarra
     return fill_colour(rgb, seen), seen
 
 
+OUTER_PLAIN = 1e-3
+"""Variance (colour^2 summed over the channels) of the background the views see around an outer pixel
+(``relabel_radius``), in a window twice the radius across, below which it counts as plain: an outer pixel may
+move back only over a plain background."""
+
+
+def _seen_variance(image: np.ndarray, seen: np.ndarray, ys: np.ndarray, xs: np.ndarray, size: int) -> np.ndarray:
+    """Variance of ``image`` (H, W, 3) over its ``seen`` pixels in ``size``-square windows at ``(ys, xs)``.
+
+    Summed over the channels; infinite where a window holds none. The filled-in pixels are left out: a textured
+    background filled in from its nearest seen points and smoothed looks plain.
+    """
+    h, w = image.shape[:2]
+    r = size // 2
+    y0, y1 = max(int(ys.min()) - r, 0), min(int(ys.max()) + r + 1, h)  # only the rows the pixels need
+    wgt = seen[y0:y1].astype(np.float32)
+    crop = image[y0:y1] * wgt[..., None]
+    n = ndimage.uniform_filter(wgt, size, mode="constant")[ys - y0, xs]
+    m = np.stack([ndimage.uniform_filter(crop[..., c], size, mode="constant")[ys - y0, xs] for c in range(3)], -1)
+    m2 = np.stack([ndimage.uniform_filter(crop[..., c] * image[y0:y1, :, c], size, mode="constant")[ys - y0, xs]
+                   for c in range(3)], -1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        var = (m2 / n[:, None] - (m / n[:, None]) ** 2).sum(axis=1)
+    return np.where(n > 1e-3, var, np.inf)
+
+
 OUTER_TIE = 1e-4
 """Residuals (colour^2) within which two foreground samples of an outer pixel (``relabel_radius``) count as equal."""
 
@@ -205,13 +233,14 @@ OUTER_TIE = 1e-4
 class SoftEdges:
     """What :func:`soften_edges` decided, for diagnostics."""
 
-    band: np.ndarray  # (H, W) bool: the pixels matted (the written band and the outer pixels, relabel_radius)
-    alpha: np.ndarray  # (H, W) float32, NaN outside the band
+    band: np.ndarray  # (H, W) bool, the cells written
+    alpha: np.ndarray  # (H, W) float32, NaN where not matted (outside the band and the outer pixels)
     front: np.ndarray  # (H, W) int32 front plane, -1 outside
     back: np.ndarray  # (H, W) int32 back plane, -1 outside
     confidence: np.ndarray  # (H, W) float32 background variation across the views
     explained: np.ndarray | None = None  # (2, H, W) float32 |I_ref - B_ref|^2 and mean_k |I_k - I_ref|^2 at the front
-    estimates: dict | None = None  # per band pixel: "views", "colour", "separation", "residual" (N,)
+    estimates: dict | None = None  # per matted pixel: "views", "colour", "separation", "residual" (N,)
+    outer: np.ndarray | None = None  # (H, W) bool, near-side pixels matted only for relabel (relabel_radius)
 
 
 def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, disparity: np.ndarray,
@@ -265,18 +294,20 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     fmin = ndimage.minimum_filter(index, size=size)
     far_side = fmax - index >= jump
     near_side = ~far_side & (index - fmin >= jump)
-    written = far_side | near_side
-    band = written
+    band = far_side | near_side
+    matted = band
     if p.relabel_radius > p.radius:  # near-side pixels farther out: matted only to decide whether they move back
         size = 2 * p.relabel_radius + 1
-        fmin = np.where(written, fmin, ndimage.minimum_filter(index, size=size))
-        outer = ~written & (index - fmin >= jump) & (ndimage.maximum_filter(index, size=size) - index < jump)
+        fmin = np.where(band, fmin, ndimage.minimum_filter(index, size=size))
+        outer = ~band & (index - fmin >= jump) & (ndimage.maximum_filter(index, size=size) - index < jump)
         near_side = near_side | outer
-        band = written | outer
+        matted = band | outer
     out = volume if inplace else volume.copy()
     info = SoftEdges(band=band, alpha=np.full((h, w), np.nan, np.float32), front=np.full((h, w), -1, np.int32),
                      back=np.full((h, w), -1, np.int32), confidence=np.zeros((h, w), np.float32))
-    if not band.any():
+    if matted is not band:
+        info.outer = outer
+    if not matted.any():
         return out, info
     f_plane = np.where(far_side, fmax, index).astype(np.int32)
     # back plane of a near-side pixel: its nearest hidden cell behind it, else the farthest surface around
@@ -285,13 +316,13 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     nearest_hidden = np.where(hidden.any(axis=0), held[len(held) - 1 - np.argmax(hidden[::-1], axis=0)], -1)
     del hidden
     b_plane = np.where(far_side, index, np.where(nearest_hidden >= 0, nearest_hidden, fmin)).astype(np.int32)
-    ys, xs = np.nonzero(band)
+    ys, xs = np.nonzero(matted)
     f, b = f_plane[ys, xs], b_plane[ys, xs]
     # sub-pixel depths of the two surfaces: strands are a pixel wide, so registration matters
     near = ndimage.maximum_filter(disparity, size=2 * p.radius + 1)
     far_around = ndimage.minimum_filter(disparity, size=2 * p.radius + 1)
-    if band is not written:
-        far_around = np.where(written, far_around, ndimage.minimum_filter(disparity, size=size))
+    if matted is not band:
+        far_around = np.where(band, far_around, ndimage.minimum_filter(disparity, size=size))
     far = np.where(nearest_hidden >= 0, d[np.maximum(nearest_hidden, 0)], far_around)
     d_front = np.where(far_side, near, disparity)[ys, xs].astype(np.float64)
     d_back = np.where(far_side, disparity, far)[ys, xs].astype(np.float64)
@@ -316,14 +347,19 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     # holding them all measured 0.17 GiB more at the peak at 4096x2160 x 64 planes)
     grown = grown_zbuffers(views, warper, disparity, p.dilate)
     back_planes = np.unique(b)
+    outer_px = None if matted is band else ~band[ys, xs]
+    known = np.ones(N, bool)  # an outer pixel's background: plain where the views see it around the pixel
     for n, bp in enumerate(back_planes):
-        image = background_image(views, warper, int(bp), disparity, dilate=p.dilate, tolerance=tol, gains=gains,
-                                 zbuffers=grown)[0]
+        image, seen = background_image(views, warper, int(bp), disparity, dilate=p.dilate, tolerance=tol,
+                                       gains=gains, zbuffers=grown)
         sel = b == bp
         for k, (X, Y) in enumerate(behind):
             B[k, sel], ins = _sample(image, X[sel], Y[sel])
             ok[k, sel] &= ins
-        del image
+        if outer_px is not None and (sel & outer_px).any():
+            o = np.nonzero(sel & outer_px)[0]
+            known[o] = _seen_variance(image, seen, ys[o], xs[o], 4 * p.relabel_radius + 1) < OUTER_PLAIN
+        del image, seen
         report(progress, "soft-edges", n + 1, len(back_planes) + 1)
     del grown, behind
     ok[reference] = True
@@ -346,7 +382,7 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     # it as well as any: of the samples that explain it about equally, the one that separates best decides
     sep = np.empty(N, np.float32)
     resid = np.empty(N, np.float32)
-    tie = np.zeros(N, np.float32) if band is written else np.where(written[ys, xs], 0.0, OUTER_TIE).astype(np.float32)
+    tie = np.zeros(N, np.float32) if outer_px is None else np.where(outer_px, OUTER_TIE, 0.0).astype(np.float32)
     _edge_kernels.colour_alpha(ys.astype(np.int64), xs.astype(np.int64), f, index, solid, plate,
                                np.ascontiguousarray(B[reference]), int(p.search), tie, a_colour, sep, resid)
     have_c = a_colour >= 0
@@ -355,6 +391,8 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     wc_ = np.where(have_c, p.w_colour * sep / (1.0 + resid / p.residual_scale), 0.0)
     alpha = (wv_ * a_views + wc_ * np.where(have_c, a_colour, 0.0) + p.w_prior * prior) / (wv_ + wc_ + p.w_prior)
     alpha = np.where(alpha < p.snap, 0.0, np.where(alpha > 1.0 - p.snap, 1.0, alpha)).astype(np.float32)
+    if outer_px is not None:  # an outer pixel whose background is not plain stays
+        alpha = np.where(outer_px & ~known, np.float32(1.0), alpha)
     # write the band's cells
     # front over back must give the plate back: C = I - (1 - alpha) B, but C is clipped to [0, white alpha].
     # The rest r the clip leaves goes to both cells: C takes alpha r (within its clip), and B what makes
@@ -375,10 +413,10 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     # plane by plane, writing only the cells that change: the volume is allocated lazily (np.zeros), and
     # writing every plane at every band pixel made its empty planes resident (at 4096x2160 x 64, 5.8 GiB)
     sf, sb = slot[f], slot[b]
-    if band is not written:  # the outer pixels' cells stay as they are
-        keep = written[ys, xs]
+    if outer_px is not None:  # the outer pixels' cells stay as they are
+        keep = ~outer_px
         sf, sb = np.where(keep, sf, -1), np.where(keep, sb, -1)
-    b_clear = b if band is written else np.where(keep, b, f)  # nothing cleared in front of the outer pixels
+    b_clear = b if outer_px is None else np.where(keep, b, f)  # nothing cleared in front of the outer pixels
     for layer, plane in enumerate(held):
         clear = (plane > b_clear) & (plane < f)  # cells between the back and the front surface are cleared
         if clear.any():
@@ -458,14 +496,16 @@ def relabel(disparity: np.ndarray, index: np.ndarray, info: SoftEdges, dispariti
 
     A near-side pixel (on the front surface of its edge) whose matte says it is mostly background belongs to
     the surface behind it: the one :func:`soften_edges` composited it over, a plane the depth map has there
-    (the nearest hidden cell behind it, or the farthest surface around). With ``confidence``, only pixels whose
+    (the nearest hidden cell behind it, or the farthest surface around). The outer pixels (``SoftEdges.outer``)
+    count as near-side band pixels here. With ``confidence``, only pixels whose
     views see backgrounds varying by more than it (``SoftEdges.confidence``, colour^2) move; with
     ``explained``, only pixels whose plate the back surface explains about as well as the views agree on the
     front (``SoftEdges.explained``: ``|I - B|^2 < explained * spread + floor``; see
     :class:`SoftEdgeParams`); with ``within`` (bool, H x W), only pixels inside it. Nothing moves nearer.
     Returns ``(disparity, index, moved)``; the inputs are not modified.
     """
-    near = info.band & (info.front >= 0) & (index >= info.front) & (info.back >= 0)
+    near = (info.band if info.outer is None else info.band | info.outer)
+    near = near & (info.front >= 0) & (index >= info.front) & (info.back >= 0)
     move = near & (np.nan_to_num(info.alpha, nan=1.0) < threshold) & (info.back < index)
     if confidence > 0:
         move &= info.confidence > confidence
