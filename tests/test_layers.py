@@ -319,32 +319,36 @@ def _holed_square_scene(textured_wall=False):
                         gains=np.ones(5))
 
 
-def test_relabel_radius_opens_a_hole_the_depth_map_filled_and_writes_nothing_outside_the_band():
-    """A depth map that filled the square's hole with the square's depth (what window matching does over a plain
-    wall): the band of 8 px around the square's outline never reaches the hole, so the passes leave it; with
-    ``relabel_radius`` the hole's pixels are matted against the wall, move back, and the passes open it. The
-    square's textured pixels stay, and a pass writes no cell outside its band."""
-    s = _holed_square_scene()
-    views = s.views()
+def _holed_square_filled(textured_wall=False):
+    """The holed square's views (reference 2), planes, true depth, hole, and a depth map with the hole filled in."""
+    s = _holed_square_scene(textured_wall)
     planes = np.arange(0.0, 8.5, 0.5)
     warper = Warper(Camera.from_positions(s.positions, s.reference), planes, s.shape)
     truth = s.gt_disparity(0.5)
     hole = np.zeros(s.shape, bool)
     hole[14 + 17:14 + 27, 26 + 17:26 + 27] = True
-    assert (truth[hole] == 1.0).all()
     disparity = np.where(hole, np.float32(6.0), truth).astype(np.float32)  # the hole filled in
-    index = layers.plane_index(disparity, planes)
+    return s.views(), warper, planes, truth, hole, disparity, layers.plane_index(disparity, planes)
+
+
+def test_relabel_radius_opens_a_hole_the_depth_map_filled_and_writes_nothing_outside_the_band():
+    """A depth map that filled the square's hole with the square's depth (what window matching does over a plain
+    wall): the band of 8 px around the square's outline never reaches the hole, so the passes leave it; with
+    ``relabel_radius`` the hole's pixels are matted against the wall, move back, and the passes open it. The
+    square's textured pixels stay, and a pass writes no cell outside its band."""
+    views, warper, planes, truth, hole, disparity, index = _holed_square_filled()
+    assert (truth[hole] == 1.0).all()
     square = (disparity == 6.0) & ~hole
     final = {}
     for rr in (0, 24):
         params = softedge.SoftEdgeParams(relabel_radius=rr)
-        vol = layers.initial_volume(views, warper, s.reference, disparity, index, white=1.0)
-        first, info = softedge.soften_edges(vol, views, warper, s.reference, disparity, index, params=params)
+        vol = layers.initial_volume(views, warper, 2, disparity, index, white=1.0)
+        first, info = softedge.soften_edges(vol, views, warper, 2, disparity, index, params=params)
         np.testing.assert_array_equal(first[:, ~info.band], vol[:, ~info.band])  # outside the 8 px band: untouched
         if rr:
             assert info.outer[hole].all() and not (info.outer & info.band).any()
-        final[rr] = softedge.soften_edges_passes(vol, views, warper, s.reference, disparity, index,
-                                                 params=params, white=1.0)[2]
+        final[rr] = softedge.soften_edges_passes(vol, views, warper, 2, disparity, index, params=params,
+                                                 white=1.0)[2]
         if rr:  # over the plain wall, outer pixels are put clear of the square
             assert (info.alpha[info.outer] == 0).sum() > 20
     assert not (final[0][hole] < 6.0).any()  # without it, the hole stays filled
@@ -355,17 +359,9 @@ def test_relabel_radius_opens_a_hole_the_depth_map_filled_and_writes_nothing_out
 def test_outer_pixels_move_only_over_a_plain_background():
     """Over a random-dot wall the colour filled in behind the square is a guess: no outer pixel is put clear. The
     variance is that of the background the views see, not of the filled-in (smoothed) colour."""
-    s = _holed_square_scene(textured_wall=True)
-    views = s.views()
-    planes = np.arange(0.0, 8.5, 0.5)
-    warper = Warper(Camera.from_positions(s.positions, s.reference), planes, s.shape)
-    truth = s.gt_disparity(0.5)
-    hole = np.zeros(s.shape, bool)
-    hole[14 + 17:14 + 27, 26 + 17:26 + 27] = True
-    disparity = np.where(hole, np.float32(6.0), truth).astype(np.float32)  # the hole filled in
-    index = layers.plane_index(disparity, planes)
-    vol = layers.initial_volume(views, warper, s.reference, disparity, index, white=1.0)
-    _, info = softedge.soften_edges(vol, views, warper, s.reference, disparity, index)
+    views, warper, planes, truth, hole, disparity, index = _holed_square_filled(textured_wall=True)
+    vol = layers.initial_volume(views, warper, 2, disparity, index, white=1.0)
+    _, info = softedge.soften_edges(vol, views, warper, 2, disparity, index)
     assert info.outer.sum() > 100 and (info.alpha[info.outer] == 1).all()
     # the variance of what is seen: a plain half and a random half, the random half's pixels marked unseen
     rng = np.random.default_rng(0)

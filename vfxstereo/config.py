@@ -24,7 +24,8 @@ robust     the default (:data:`DEFAULT_PRESET`), beyond the paper: the robust mu
            (:mod:`vfxstereo.depth`), the initial volume from it with hidden layers (:mod:`vfxstereo.layers`),
            soft edges by triangulation against the backgrounds the views see (:mod:`vfxstereo.softedge`), in up
            to 8 passes that send edge pixels the matte calls background back where the views agree
-           (``SoftEdgeParams.relabel_explained``); no refinement (it is Eqs. 9-13 that the paper's selection
+           (``SoftEdgeParams.relabel_explained``), and that open holes the depth map filled over a plain
+           wall (``SoftEdgeParams.relabel_radius``); no refinement (it is Eqs. 9-13 that the paper's selection
            needs to fill in, not this volume)
 zkey       the same as ``robust`` (the z-keying default, by its old name; it used to be ``paper`` with edge
            matting, which measured worse than either on production-like plates)
