@@ -378,10 +378,10 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     solid = ~core
     plate = np.ascontiguousarray(views[reference], np.float32)
     a_colour = np.empty(N, np.float32)
-    # an outer pixel inside a filled-in hole has hole pixels around it as foreground samples too, which explain
-    # it as well as any: of the samples that explain it about equally, the one that separates best decides
     sep = np.empty(N, np.float32)
     resid = np.empty(N, np.float32)
+    # an outer pixel inside a filled-in hole has hole pixels around it as foreground samples too, which explain
+    # it as well as any: of the samples that explain it about equally, the one that separates best decides
     tie = np.zeros(N, np.float32) if outer_px is None else np.where(outer_px, OUTER_TIE, 0.0).astype(np.float32)
     _edge_kernels.colour_alpha(ys.astype(np.int64), xs.astype(np.int64), f, index, solid, plate,
                                np.ascontiguousarray(B[reference]), int(p.search), tie, a_colour, sep, resid)
