@@ -33,9 +33,10 @@ This stage gives the layered model a dependable front surface instead, from clas
    the back candidate (:func:`refine_edges`), against the foreground fattening of steps 1-3.
 
 Measured (``benchmarks/middlebury.py``, all 31 sets, one published px apart, the GT's view as reference):
-0.49x OpenCV SGBM's bad pixels on average (9.6 % against 19.5 %), at most 0.91x (Midd1); from the classic
-pair alone 15.0 % (18.1 % before the rematch check and the frame-edge step). Per set: tsukuba 4.4 %, venus
-1.4 %, teddy 5.8 %, cones 10.6 %, Art 11.7 %, Midd1 26.4 %. Held-out view PSNR 37.9 dB against the SGBM warp's 34.2.
+0.50x OpenCV SGBM's bad pixels on average (9.8 % against 19.5 %), at most 0.89x (Midd1); from the classic
+pair alone 14.9 % (18.1 % before the rematch check and the frame-edge step). Per set: tsukuba 4.4 %, venus
+1.4 %, teddy 5.8 %, cones 10.7 %, Art 11.7 %, Midd1 26.0 %. Held-out view PSNR 37.8 dB against the SGBM warp's 34.2.
+(With ``flat_window`` 31 and ``far_bias`` 0.25, until session 15: 9.6 %, 0.49x, worst 0.91x.)
 """
 
 from __future__ import annotations
