@@ -140,7 +140,7 @@ def test_soft_edge_settings_that_cannot_work_are_refused():
     from vfxstereo.errors import VfxStereoError
 
     for bad in ({"radius": 0}, {"dilate": -1}, {"snap": 0.5}, {"reach": -1}, {"relabel_floor": -0.1},
-                {"relabel_radius": -1}):
+                {"relabel_radius": -1}, {"min_separation": -0.1}):
         with pytest.raises(VfxStereoError, match="soft edges"):
             softedge.SoftEdgeParams(**bad)
 
@@ -301,7 +301,7 @@ def test_a_volume_rebuilt_in_place_equals_a_new_one():
     np.testing.assert_array_equal(again, fresh)
 
 
-def _holed_square_scene(textured_wall=False):
+def _holed_square_scene(textured_wall=False, hole=True):
     """A textured orange square (d = 6) with a 10 x 10 hole at its middle, over a plain wall (d = 1); K = 5."""
     from vfxstereo import zkey_scenes as scenes
 
@@ -312,7 +312,8 @@ def _holed_square_scene(textured_wall=False):
     tex = np.stack([rng.uniform(0.55, 0.95, (44, 44)), rng.uniform(0.2, 0.45, (44, 44)),
                     rng.uniform(0.02, 0.15, (44, 44))], axis=-1).astype(np.float32)
     square = scenes.opaque(tex)
-    square[17:27, 17:27] = 0.0  # the hole: more than the band's 8 px from the square's outline
+    if hole:
+        square[17:27, 17:27] = 0.0  # the hole: more than the band's 8 px from the square's outline
     layers_ = [scenes.PlanarLayer("wall", scenes.opaque(wall), 1.0),
                scenes.PlanarLayer("square", scenes.place(square, canvas, 16 + 14, 16 + 26), 6.0)]
     return scenes.Scene("holed square", layers_, positions=np.arange(-2.0, 3.0), reference=2, margin=16,
@@ -354,6 +355,34 @@ def test_relabel_radius_opens_a_hole_the_depth_map_filled_and_writes_nothing_out
     assert not (final[0][hole] < 6.0).any()  # without it, the hole stays filled
     assert (final[24][hole] == 1.0).mean() > 0.9, (final[24][hole] == 1.0).mean()
     assert (final[24][square] == 6.0).mean() > 0.98  # the square itself stays where it is
+
+
+def test_a_rim_grown_over_a_plain_wall_goes_back_past_its_wall_coloured_samples():
+    """The square's depth grown 6 px over the plain wall (window matching's fattening): a rim pixel's nearest solid
+    foreground is more rim, the wall's colour, which explains it and separates nothing, so the depth map's prior
+    keeps it solid. Walking past such samples (``min_separation``) reaches the square's orange, which puts the
+    rim clear: the passes send it back to the wall, and the square stays."""
+    from scipy import ndimage
+
+    s = _holed_square_scene(hole=False)
+    views = s.views()
+    planes = np.arange(0.0, 8.5, 0.5)
+    warper = Warper(Camera.from_positions(s.positions, s.reference), planes, s.shape)
+    truth = s.gt_disparity(0.5)
+    disparity = ndimage.maximum_filter(truth, size=13).astype(np.float32)
+    index = layers.plane_index(disparity, planes)
+    rim = (disparity == 6.0) & (truth == 1.0)
+    square = truth == 6.0
+    assert rim.sum() > 500
+    final = {}
+    for sep in (0.0, softedge.SoftEdgeParams().min_separation):
+        params = softedge.SoftEdgeParams(min_separation=sep)
+        vol = layers.initial_volume(views, warper, 2, disparity, index, white=1.0)
+        final[sep] = softedge.soften_edges_passes(vol, views, warper, 2, disparity, index, params=params,
+                                                  white=1.0)[2]
+        assert (final[sep][square] == 6.0).mean() > 0.98  # the square itself stays
+    back = {sep: float((d[rim] == 1.0).mean()) for sep, d in final.items()}
+    assert back[0.0] < 0.75 and back[softedge.SoftEdgeParams().min_separation] > 0.95, back  # measured 0.58, 1.0
 
 
 def test_outer_pixels_move_only_over_a_plain_background():

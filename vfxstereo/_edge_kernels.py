@@ -62,11 +62,12 @@ def stack_checks(cells, white):
 
 
 @njit(cache=True, nogil=True)
-def colour_alpha(ys, xs, fplane, index, solid, plate, background, max_steps, tie, alpha_out, sep_out, dist_out):
+def colour_alpha(ys, xs, fplane, index, solid, plate, background, max_steps, tie, walk, alpha_out, sep_out, dist_out):
     """Alpha of band pixel n from the plate and its background, with the foreground colour sampled nearby.
 
     For each of 8 directions, the nearest ``solid`` pixel (at most ``max_steps`` away) whose plane ``index``
-    equals the pixel's front plane ``fplane[n]`` is a foreground sample F. With the background B of the pixel,
+    equals the pixel's front plane ``fplane[n]`` and whose colour is at least ``walk[n]`` from the pixel's
+    background B (``|F - B|^2``; closer ones are walked past) is a foreground sample F. With B,
     ``alpha = clip((I - B) . (F - B) / |F - B|^2, 0, 1)`` and the sample that explains the plate best
     (least ``|I - alpha F - (1 - alpha) B|^2``) wins; of samples within ``tie[n]`` of each other, the one that
     separates the layers best (largest ``|F - B|^2``). Outputs alpha, ``|F - B|^2`` (how well colour separates
@@ -88,18 +89,23 @@ def colour_alpha(ys, xs, fplane, index, solid, plate, background, max_steps, tie
             yy = y + dy
             xx = x + dx
             steps = 1
-            while 0 <= yy < H and 0 <= xx < W and steps <= max_steps and not (solid[yy, xx] and index[yy, xx] == f):
+            num = 0.0
+            den = 0.0
+            while 0 <= yy < H and 0 <= xx < W and steps <= max_steps:
+                if solid[yy, xx] and index[yy, xx] == f:
+                    num = 0.0
+                    den = 0.0
+                    for c in range(3):
+                        fb = plate[yy, xx, c] - background[n, c]
+                        num += (plate[y, x, c] - background[n, c]) * fb
+                        den += fb * fb
+                    if den >= walk[n]:
+                        break
                 yy += dy
                 xx += dx
                 steps += 1
             if not (0 <= yy < H and 0 <= xx < W) or steps > max_steps:
                 continue
-            num = 0.0
-            den = 0.0
-            for c in range(3):
-                fb = plate[yy, xx, c] - background[n, c]
-                num += (plate[y, x, c] - background[n, c]) * fb
-                den += fb * fb
             if den < 1e-8:
                 continue
             a = min(max(num / den, 0.0), 1.0)
