@@ -334,7 +334,7 @@ def _scene(name, layers, K, rng, description, elements_at, *, seed, noise=(0.003
 
 SCENES = {}
 """Scene builders by name: ``builder(K=5, data_dir=None) -> Scene``."""
-HELD_OUT = ("koala_slope", "artichoke_books", "flowers_fence")
+HELD_OUT = ("koala_slope", "artichoke_books", "flowers_fence", "doll_plaster", "ostrich_grille")
 """Scenes kept out of tuning: scored only at the end (benchmarks/zkey_scenes.py --held-out)."""
 
 
@@ -465,6 +465,36 @@ def flowers_fence(K: int = 5, data_dir=None) -> Scene:
     fen = PlanarLayer("fence", fence(cv, spacing=34.0, thickness=3.0, angle=10.0, colour=(0.55, 0.5, 0.45),
                                      rng=rng), 12.8)
     return _scene("flowers_fence", [wall, flowers, fen], K, rng, flowers_fence.__doc__, (10.0, 4.0), seed=9)
+
+
+@_register
+def doll_plaster(K: int = 5, data_dir=None) -> Scene:
+    """(held out) A doll's orange hair (GT03) over the Reindeer photo card over a plain warm plaster wall."""
+    rng = np.random.default_rng(10)
+    cv = _canvas()
+    wall = PlanarLayer("plaster", opaque(painted_wall(cv, (0.62, 0.52, 0.40), rng, grain=0.005)), 1.4, gy=0.004)
+    deer = photo("middlebury2005_2006_halfsize/Reindeer", (150, 170), data_dir=data_dir)
+    card_r = PlanarLayer("Reindeer card", place(opaque(deer), cv, 110, 190), 6.9)
+    # mirrored, so that the photograph's own edge (the doll's shoulder cut off) lies outside the frame
+    doll = PlanarLayer("doll", place(np.ascontiguousarray(matte("GT03", 250, data_dir=data_dir)[:, ::-1]), cv, 30, 0),
+                       13.1)
+    return _scene("doll_plaster", [wall, card_r, doll], K, rng, doll_plaster.__doc__, (10.0, 4.5), seed=10)
+
+
+@_register
+def ostrich_grille(K: int = 5, data_dir=None) -> Scene:
+    """(held out) A grille of thin bars in front of an ostrich (GT14), over the Bowling1 photo and a plain wall."""
+    rng = np.random.default_rng(11)
+    cv = _canvas()
+    wall = PlanarLayer("wall", opaque(painted_wall(cv, (0.55, 0.6, 0.66), rng)), 0.6)
+    bowl = photo("middlebury2005_2006_halfsize/Bowling1", (170, 150), data_dir=data_dir)
+    card_b = PlanarLayer("Bowling card", place(opaque(bowl), cv, 60, 230), 3.9, gx=0.006)
+    ostrich = PlanarLayer("ostrich", place(matte("GT14", 240, data_dir=data_dir, crop=(0.0, 1.0, 0.15, 0.85)), cv,
+                                           45, 60), 8.4)
+    grille = PlanarLayer("grille", fence(cv, spacing=40.0, thickness=2.5, angle=-15.0, colour=(0.25, 0.25, 0.27),
+                                         rng=rng), 14.5)
+    return _scene("ostrich_grille", [wall, card_b, ostrich, grille], K, rng, ostrich_grille.__doc__,
+                  (11.5, 6.0, 2.5), seed=11)
 
 
 def build(name: str, *, K: int = 5, data_dir=None) -> Scene:
