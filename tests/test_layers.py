@@ -351,7 +351,7 @@ def test_relabel_radius_opens_a_hole_the_depth_map_filled_and_writes_nothing_out
         final[rr] = softedge.soften_edges_passes(vol, views, warper, 2, disparity, index, params=params,
                                                  white=1.0)[2]
         if rr:  # over the plain wall, outer pixels are put clear of the square
-            assert (info.alpha[info.outer] == 0).sum() > 20
+            assert (info.alpha[info.outer] < 0.1).sum() > 20
     assert not (final[0][hole] < 6.0).any()  # without it, the hole stays filled
     assert (final[24][hole] == 1.0).mean() > 0.9, (final[24][hole] == 1.0).mean()
     assert (final[24][square] == 6.0).mean() > 0.98  # the square itself stays where it is
