@@ -67,9 +67,12 @@ class SoftEdgeParams:
     """Weight of the depth map's 0/1 label."""
     snap: float = 0.05
     """Alphas within this of 0 or 1 become 0 or 1 (most band pixels are clear or solid; the estimates carry
-    noise). Z-key tuning scenes (frame / band dB, K = 5 and 2, with ``min_separation``): 0.2 30.47 / 22.42;
-    0.1 30.61 / 22.72; **0.05 30.62 / 22.81**; 0 30.61 / 22.83 (every scene's band up, doll_plant K = 5's
-    frame down 0.7). Middlebury's held-out views, 0.2 / 0.05: tsukuba 32.67 / 32.88, teddy 31.00 / 31.03."""
+    noise). Chosen with ``min_separation`` 0.18 (the ``soft`` preset's), z-key tuning scenes (frame / band dB,
+    K = 5 and 2): 0.2 30.47 / 22.42; 0.1 30.61 / 22.72; **0.05 30.62 / 22.81**; 0 30.61 / 22.83 (every scene's
+    band up, doll_plant K = 5's frame down 0.7); Middlebury's held-out views, 0.2 / 0.05: tsukuba 32.67 /
+    32.88, teddy 31.00 / 31.03. With the default ``min_separation`` 0, 0.2 / 0.05: the 82 z-key rows of
+    session 15 28.38 / 20.78 -> 28.43 / 20.97; held-out tsukuba 32.85 / 32.99, teddy 30.80 / 30.85, Cloth1
+    40.67 / 40.50, Plastic 39.80 / 39.66, Wood2 42.78 / 42.62, Baby3 41.08 / 41.04."""
     search: int = 24
     """Farthest a foreground colour sample is looked for, px."""
     passes: int = 8
@@ -124,15 +127,14 @@ class SoftEdgeParams:
     the passes stopped settling (Cloth1 moves 72, 30, 17 pixels in 3 passes without it, 500-900 a pass for 7
     passes with it; soft edges 22 -> 71 s), and ``make demo`` (pink hair over a light background: hair samples
     of the background's colour are walked past and the hair goes back) fell 29.1 / 25.5 -> 27.5 / 24.7 dB.
-    Measured on the z-key tuning scenes (frame / band dB, K = 5 and 2 together; 0: 28.43 / 20.38): 0.12:
-    30.29 / 22.11; **0.18: 30.47 / 22.42**; 0.25: 30.67 / 22.65; 0.5: 29.28 / 21.55 (fur_grey_wall K = 5
-    back to 29.82 / 18.90).
-    fur_grey_wall 27.57 / 16.48 -> 37.03 / 26.15 (K = 5), tassels_room K = 2 +2.4 / +3.2; no scene below 0 by
-    more than 0.25 dB. An absolute threshold (``|F - B|^2 < 0.02``) ate dark tassels over a dark room
-    (tassels_room K = 5 frame -1.4 dB): in linear light dark colours are close. Middlebury's held-out views
-    cost a little (dB, 0 / 0.12 / 0.18 / 0.25): tsukuba 32.85 / 32.90 / 32.67 / 32.51 (the SGBM warp: 32.52),
-    Plastic 39.80 / 39.09 / 38.93 / 39.00 (40.29), teddy 30.80 / 30.88 / - / 30.95, Wood2 42.78 / 42.71 / - /
-    42.63: on hard edges between plain surfaces of like colour, nothing tells the two apart."""
+    Measured on the z-key tuning scenes (frame / band dB, K = 5 and 2 together; 0: 28.43 / 20.38): 0.12: 30.29 /
+    22.11; **0.18: 30.47 / 22.42**; 0.25: 30.67 / 22.65; 0.5: 29.28 / 21.55 (fur_grey_wall K = 5 back to 29.82 /
+    18.90); fur_grey_wall 27.57 / 16.48 -> 37.03 / 26.15 (K = 5), tassels_room K = 2 +2.4 / +3.2; no scene below 0
+    by more than 0.25 dB. An absolute threshold (``|F - B|^2 < 0.02``) ate dark tassels over a dark room
+    (tassels_room K = 5 frame -1.4 dB): in linear light dark colours are close. Middlebury's held-out views cost a
+    little (dB, 0 / 0.12 / 0.18 / 0.25): tsukuba 32.85 / 32.90 / 32.67 / 32.51 (the SGBM warp: 32.52), Plastic 39.80
+    / 39.09 / 38.93 / 39.00 (40.29), teddy 30.80 / 30.88 / - / 30.95, Wood2 42.78 / 42.71 / - / 42.63: on hard edges
+    between plain surfaces of like colour, nothing tells the two apart."""
     relabel_radius: int = 32
     """Near-side pixels up to this far from a depth jump (px) are matted too, only to decide whether they move
     back (:func:`relabel`); their cells are written once a pass has moved them into the band of ``radius``.
