@@ -145,17 +145,28 @@ def test_a_failing_run_reports_the_commands_one_line_error_and_leaves_nothing(tm
     assert os.listdir(tmp_path) == []
 
 
-def test_cancel_stops_the_child_and_leaves_the_folder_as_it_was(tmp_path):
-    (tmp_path / "keep.txt").write_text("mine")
-    run = SolveRun(_bundled(), SolveRequest(str(tmp_path / "stack.exr"), dataset=str(DEMO)))
+def test_cancel_stops_the_child_and_leaves_the_folder_as_it_was(tmp_path, small_views):
+    # A shot of 200 frames (hard links to the same views): minutes of work, so the child cannot end on its own
+    # between the test seeing it start and cancelling it. The demo's one-frame solve (~2.5 s) sometimes did, on a
+    # loaded 2-core CI machine, and then exited 0 before the SIGINT.
+    shot = tmp_path / "plates"
+    shot.mkdir()
+    for frame in range(1001, 1201):
+        for k, view in enumerate(small_views):
+            os.link(view, shot / f"v{k}.{frame}.exr")
+    patterns = tuple(str(shot / f"v{k}.####.exr") for k in range(len(small_views)))
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "keep.txt").write_text("mine")
+    run = SolveRun(_bundled(), SolveRequest(str(out / "stack.####.exr"), views=patterns, disparities="0:3"))
     run.start()
     deadline = time.monotonic() + 60
-    while run.poll() is None and run.progress.stage == "" and time.monotonic() < deadline:
+    while run.poll() is None and run.progress.frame_index < 2 and time.monotonic() < deadline:
         time.sleep(0.05)
     assert run.returncode is None, "the solve ended before it could be cancelled"
     pid = run._proc.pid
     run.cancel()
-    assert os.listdir(tmp_path) == ["keep.txt"]
+    assert os.listdir(out) == ["keep.txt"]  # not even the frames finished before the cancel
     with pytest.raises(ProcessLookupError):
         os.kill(pid, 0)  # the child is gone (and reaped)
     assert run.returncode != 0
