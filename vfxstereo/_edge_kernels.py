@@ -118,3 +118,34 @@ def colour_alpha(ys, xs, fplane, index, solid, plate, background, max_steps, tie
                 alpha_out[n] = a
                 sep_out[n] = den
                 dist_out[n] = dist
+
+
+@njit(cache=True, parallel=True, nogil=True)
+def adjacent_back(ys, xs, index, fplane, jump, radius, plane_out, where_out):
+    """The nearest pixel behind each pixel ``(ys[i], xs[i])``: the back surface of a soft edge.
+
+    Nearest by Euclidean distance (ties: the first in scan order), in the square of half-side ``radius`` around
+    it, among the pixels whose plane is at least ``jump`` behind ``fplane[i]``: its plane into ``plane_out[i]``
+    (-1: none) and its flat index ``y * W + x`` into ``where_out[i]``.
+    """
+    h, w = index.shape
+    for i in prange(len(ys)):
+        y, x, limit = ys[i], xs[i], fplane[i] - jump
+        best, bp, bw = 2 * radius * radius + 1, -1, -1
+        for r in range(1, radius + 1):
+            if r * r >= best:  # no pixel of this ring or beyond is nearer than the one found
+                break
+            for dy in range(-r, r + 1):
+                yy = y + dy
+                if yy < 0 or yy >= h:
+                    continue
+                step = 1 if (dy == -r or dy == r) else 2 * r
+                for dx in range(-r, r + 1, step):
+                    xx = x + dx
+                    if xx < 0 or xx >= w or index[yy, xx] > limit:
+                        continue
+                    dd = dy * dy + dx * dx
+                    if dd < best:
+                        best, bp, bw = dd, index[yy, xx], yy * w + xx
+        plane_out[i] = bp
+        where_out[i] = bw
