@@ -378,7 +378,7 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
         sel = np.nonzero(pick)[0]
         adj_plane = np.empty(len(sel), np.int64)
         adj_where = np.empty(len(sel), np.int64)
-        _edge_kernels.adjacent_back(ys[sel], xs[sel], np.ascontiguousarray(index, np.int64), f[sel].astype(np.int64),
+        _edge_kernels.adjacent_back(ys[sel], xs[sel], np.ascontiguousarray(index), f[sel].astype(np.int64),
                                     int(jump), int(reach), adj_plane, adj_where)
         found = adj_plane >= 0
         b[sel[found]] = adj_plane[found]
