@@ -460,10 +460,11 @@ def test_an_adjacent_back_mattes_a_tip_against_the_surface_right_behind_it():
     index = layers.plane_index(truth, planes)
     strip = truth == 7.0
     assert strip.sum() > 100
+    views = s.views()
     got = {}
     for back in ("farthest", "adjacent"):
-        vol = layers.front_volume(index, s.views()[2], len(planes))  # no hidden cells: the back is chosen
-        _, info = softedge.soften_edges(vol, s.views(), warper, 2, truth, index,
+        vol = layers.front_volume(index, views[2], len(planes))  # no hidden cells: the back is chosen
+        _, info = softedge.soften_edges(vol, views, warper, 2, truth, index,
                                         params=softedge.SoftEdgeParams(back=back))
         got[back] = info
     assert (planes[got["farthest"].back[strip]] == 1.0).mean() > 0.9  # the wall

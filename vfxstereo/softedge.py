@@ -355,8 +355,7 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     if not matted.any():
         return out, info
     f_plane = np.where(far_side, fmax, index).astype(np.int32)
-    # back plane of a near-side pixel: its nearest hidden cell behind it, else the farthest surface around (or,
-    # with back="adjacent", below: the surface of the nearest pixel behind it)
+    # back plane of a near-side pixel: its nearest hidden cell behind it, else (below) the one ``p.back`` picks
     hidden = volume[..., 3] > 0.5
     hidden &= held[:, None, None] < index[None]
     nearest_hidden = np.where(hidden.any(axis=0), held[len(held) - 1 - np.argmax(hidden[::-1], axis=0)], -1)
@@ -366,23 +365,24 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     f, b = f_plane[ys, xs], b_plane[ys, xs]
     # sub-pixel depths of the two surfaces: strands are a pixel wide, so registration matters
     near = ndimage.maximum_filter(disparity, size=2 * p.radius + 1)
-    far_around = ndimage.minimum_filter(disparity, size=2 * p.radius + 1)
-    if matted is not band:
-        far_around = np.where(band, far_around, ndimage.minimum_filter(disparity, size=size))
-    far = np.where(nearest_hidden >= 0, d[np.maximum(nearest_hidden, 0)], far_around)
     d_front = np.where(far_side, near, disparity)[ys, xs].astype(np.float64)
-    d_back = np.where(far_side, disparity, far)[ys, xs].astype(np.float64)
-    if p.back == "adjacent":  # the surface of the nearest pixel behind, not the farthest one around
-        pick = ~far_side[ys, xs] & (nearest_hidden[ys, xs] < 0)
+    d_back = np.where(far_side, disparity, d[np.maximum(nearest_hidden, 0)])[ys, xs].astype(np.float64)
+    rest = np.nonzero(~far_side[ys, xs] & (nearest_hidden[ys, xs] < 0))[0]  # near-side, no hidden cell behind
+    if p.back == "adjacent" and len(rest):  # the surface of the nearest pixel behind, not the farthest one around
         reach = max(p.radius, p.relabel_radius) if matted is not band else p.radius
-        sel = np.nonzero(pick)[0]
-        adj_plane = np.empty(len(sel), np.int64)
-        adj_where = np.empty(len(sel), np.int64)
-        _edge_kernels.adjacent_back(ys[sel], xs[sel], np.ascontiguousarray(index), f[sel].astype(np.int64),
+        adj_plane = np.empty(len(rest), np.int64)
+        adj_where = np.empty(len(rest), np.int64)
+        _edge_kernels.adjacent_back(ys[rest], xs[rest], np.ascontiguousarray(index), f[rest].astype(np.int64),
                                     int(jump), int(reach), adj_plane, adj_where)
         found = adj_plane >= 0
-        b[sel[found]] = adj_plane[found]
-        d_back[sel[found]] = disparity.reshape(-1)[adj_where[found]]
+        b[rest[found]] = adj_plane[found]
+        d_back[rest[found]] = disparity.reshape(-1)[adj_where[found]]
+        rest = rest[~found]  # none in practice: the band's own test found a surface that far behind
+    if len(rest):  # the farthest surface around (b is already its plane, fmin)
+        far_around = ndimage.minimum_filter(disparity, size=2 * p.radius + 1)
+        if matted is not band:
+            far_around = np.where(band, far_around, ndimage.minimum_filter(disparity, size=size))
+        d_back[rest] = far_around[ys[rest], xs[rest]]
     # the backgrounds, one image per back plane in use
     K = views.shape[0]
     N = len(ys)
