@@ -140,7 +140,8 @@ def test_soft_edge_settings_that_cannot_work_are_refused():
     from vfxstereo.errors import VfxStereoError
 
     for bad in ({"radius": 0}, {"dilate": -1}, {"snap": 0.5}, {"reach": -1}, {"relabel_floor": -0.1},
-                {"relabel_radius": -1}, {"min_separation": -0.1}, {"back": "nearest"}):
+                {"relabel_radius": -1}, {"min_separation": -0.1}, {"back": "nearest"},
+                {"separation_where": "anywhere"}):
         with pytest.raises(VfxStereoError, match="soft edges"):
             softedge.SoftEdgeParams(**bad)
 
@@ -383,6 +384,38 @@ def test_a_rim_grown_over_a_plain_wall_goes_back_past_its_wall_coloured_samples(
         assert (final[sep][square] == 6.0).mean() > 0.98  # the square itself stays
     back = {sep: float((d[rim] == 1.0).mean()) for sep, d in final.items()}
     assert back[0.0] < 0.75 and back[0.18] > 0.95, back  # measured 0.58, 1.0
+
+
+def test_walking_past_wall_coloured_samples_only_over_a_plain_background():
+    """``separation_where="plain"`` walks past samples of the background's colour only where the background the
+    views see around the pixel is plain: over the plain wall the grown rim goes back as with the walk everywhere;
+    over a random-dot wall the walk is off, and the result is bit for bit the one without it."""
+    from scipy import ndimage
+
+    def solve_rim(textured, **kw):
+        s = _holed_square_scene(textured_wall=textured, hole=False)
+        views = s.views()
+        planes = np.arange(0.0, 8.5, 0.5)
+        warper = Warper(Camera.from_positions(s.positions, s.reference), planes, s.shape)
+        truth = s.gt_disparity(0.5)
+        disparity = ndimage.maximum_filter(truth, size=13).astype(np.float32)
+        index = layers.plane_index(disparity, planes)
+        vol = layers.initial_volume(views, warper, 2, disparity, index, white=1.0)
+        params = softedge.SoftEdgeParams(**kw)
+        out, info = softedge.soften_edges(vol, views, warper, 2, disparity, index, params=params)
+        final = softedge.soften_edges_passes(vol, views, warper, 2, disparity, index, params=params, white=1.0)[2]
+        rim = (disparity == 6.0) & (truth == 1.0)
+        return out, info, float((final[rim] == 1.0).mean())
+
+    _, _, plain_gated = solve_rim(False, min_separation=0.18, separation_where="plain")
+    _, _, plain_all = solve_rim(False, min_separation=0.18, separation_where="everywhere")
+    assert plain_gated == plain_all > 0.95, (plain_gated, plain_all)
+    off, info_off, _ = solve_rim(True, min_separation=0.0)
+    gated, info_gated, _ = solve_rim(True, min_separation=0.18, separation_where="plain")
+    walked, info_walked, _ = solve_rim(True, min_separation=0.18, separation_where="everywhere")
+    np.testing.assert_array_equal(gated, off)
+    np.testing.assert_array_equal(info_gated.alpha, info_off.alpha)
+    assert not np.array_equal(np.nan_to_num(info_walked.alpha), np.nan_to_num(info_off.alpha))  # the gate did it
 
 
 def test_outer_pixels_move_only_over_a_plain_background():

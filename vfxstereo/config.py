@@ -25,7 +25,9 @@ robust     the default (:data:`DEFAULT_PRESET`), beyond the paper: the robust mu
            soft edges by triangulation against the backgrounds the views see (:mod:`vfxstereo.softedge`), in up
            to 8 passes that send edge pixels the matte calls background back where the views agree
            (``SoftEdgeParams.relabel_explained``), and that open holes the depth map filled over a plain
-           wall (``SoftEdgeParams.relabel_radius``); no refinement (it is Eqs. 9-13 that the paper's selection
+           wall (``SoftEdgeParams.relabel_radius``); over a plain background, a rim the depth map grew over
+           the wall goes back (foreground samples of the wall's colour are walked past:
+           ``SoftEdgeParams.separation_where``); no refinement (it is Eqs. 9-13 that the paper's selection
            needs to fill in, not this volume)
 zkey       the same as ``robust`` (the z-keying default, by its old name; it used to be ``paper`` with edge
            matting, which measured worse than either on production-like plates)
@@ -33,8 +35,8 @@ soft       ``robust`` with the passes unguarded (``SoftEdgeParams.relabel_explai
            near-side edge pixel whose alpha comes out below 0.5 moves back, for hair, fur and foliage over
            plain backgrounds, where the views cannot tell. On hard, opaque edges in real photographs it eats
            into the edge (Middlebury tsukuba's held-out view 30.3 dB against the default's 32.8). Its foreground
-           samples walk past the background's colour (``SoftEdgeParams.min_separation`` = 0.18): a rim the
-           depth map grew over a plain wall goes back (fur over a grey wall +9 dB on the band)
+           samples walk past the background's colour over any background, not only a plain one
+           (``SoftEdgeParams.separation_where`` = "everywhere")
 =========  =====================================================================================
 
 fig6b-e differ from ``paper`` in their lambdas only.
@@ -273,7 +275,8 @@ PRESETS: dict[str, dict] = {
     "robust": {"depth": "robust", "refine_iterations": 0, "soft_edges": True},
 }
 PRESETS["soft"] = {**PRESETS["robust"], "soft_edge": _softedge.SoftEdgeParams(relabel_explained=0.0,
-                                                                            min_separation=0.18)}
+                                                                            min_separation=0.18,
+                                                                            separation_where="everywhere")}
 PRESETS["zkey"] = PRESETS["robust"]  # the z-keying default, by its old name
 
 DEFAULT_PRESET = "robust"

@@ -113,16 +113,17 @@ class SoftEdgeParams:
     """The noise allowance of ``relabel_explained`` (colour^2): over a plain wall both sides of the test are
     near 0 and the matte decides. 0.001: tuning band 20.17 / 18.56 dB (K = 5 / 2), tsukuba 32.90; 0.003:
     20.32 / 18.63, tsukuba 32.78; none: 20.13 / 18.42, tsukuba 33.34."""
-    min_separation: float = 0.0
+    min_separation: float = 0.18
     """A foreground sample whose colour is this close to the pixel's background, ``|F - B|^2 < min_separation *
     (|B|^2 + SEPARATION_FLOOR)`` (colour^2, relative so that dark colours count alike), is walked past: the
     search goes on in its direction to the next solid pixel (up to ``search`` px). Depth maps grow a
     foreground over the plain wall beside it (fur, a plush toy), and a pixel of that grown rim finds, as its
     nearest solid foreground, more of the rim: the wall's colour, which explains it perfectly and separates
     nothing, so its weight is near 0, the depth map's prior wins and the rim stays solid. Past the rim lies the
-    fur itself, whose colour puts the pixel clear and moves it back. 0 (the default; 0.18 in the ``soft``
-    preset): the nearest sample in each direction. Off by default because on real photographs it erodes hard
-    edges the views cannot defend: Middlebury's held-out views with 0.18 fell on 10 of the first 13 sets
+    fur itself, whose colour puts the pixel clear and moves it back. 0: the nearest sample in each direction.
+    By default only over a plain background (``separation_where``; the ``soft`` preset: everywhere). Everywhere,
+    on real photographs it erodes hard edges the views cannot defend: Middlebury's held-out views with 0.18 fell
+    on 10 of the first 13 sets
     (Cloth1 40.67 -> 39.74 dB, Baby3 41.08 -> 40.70, Books 35.79 -> 35.44; still far above the SGBM warp),
     the passes stopped settling (Cloth1 moves 72, 30, 17 pixels in 3 passes without it, 500-900 a pass for 7
     passes with it; soft edges 22 -> 71 s), and ``make demo`` (pink hair over a light background: hair samples
@@ -135,6 +136,18 @@ class SoftEdgeParams:
     little (dB, 0 / 0.12 / 0.18 / 0.25): tsukuba 32.85 / 32.90 / 32.67 / 32.51 (the SGBM warp: 32.52), Plastic 39.80
     / 39.09 / 38.93 / 39.00 (40.29), teddy 30.80 / 30.88 / - / 30.95, Wood2 42.78 / 42.71 / - / 42.63: on hard edges
     between plain surfaces of like colour, nothing tells the two apart."""
+    separation_where: str = "plain"
+    """Where ``min_separation`` applies: "everywhere" (the ``soft`` preset), or "plain": only at pixels whose
+    background, as the views see it around the pixel, is plain (its variance below ``OUTER_PLAIN`` over a window
+    of ``4 * radius + 1`` px). The rim a depth map grows over a wall is only wall-coloured, and so only walked
+    past, where the wall is plain; on a textured background the walk found samples of a like colour on hard
+    edges and ate into them. Measured (frame / band dB, walk off -> plain): all 102 z-key rows 26.66 / 19.71 ->
+    28.03 / 21.03 (fur_grey_wall +9.4 / +9.1 and +10.6 / +9.3 at K = 5 / 2, doll_plaster +3.2 / +4.9 and
+    +3.2 / +3.8, koala_slope +1.6 / +1.7 and +1.6 / +1.3, fence_dof K = 5 +2.5 / +1.4; worst wicker_wall K = 5
+    +0.67 / -0.47, plush_wall K = 5 -0.42 / -0.42); Middlebury's held-out views (dB) tsukuba 33.49 -> 33.48,
+    teddy 31.10 -> 31.24, Cloth1 40.53 -> 40.53, Baby3 41.09 -> 41.07, Books 35.81 -> 35.79, Plastic 39.68 ->
+    39.53, Wood2 42.61 -> 42.57. Windows of 17 and 65 px: -0.25 / -0.32 and +0.08 / +0.11 dB on the six scenes
+    it moves most (42 rows), doll_plaster K = 2 -1.7 / -2.2 with 17."""
     back: str = "adjacent"
     """The back surface of a near-side band pixel without a hidden cell behind it: "adjacent", the surface of the
     nearest pixel at least ``jump`` behind it (in the square of ``radius`` px, ``relabel_radius`` for the outer
@@ -175,10 +188,12 @@ class SoftEdgeParams:
     def __post_init__(self):
         if (self.radius < 1 or self.dilate < 0 or self.search < 1 or not 0 <= self.snap < 0.5 or self.passes < 1
                 or self.reach < 0 or self.relabel_radius < 0 or self.relabel_explained < 0 or self.relabel_floor < 0
-                or self.min_separation < 0 or self.back not in ("farthest", "adjacent")):
+                or self.min_separation < 0 or self.back not in ("farthest", "adjacent")
+                or self.separation_where not in ("everywhere", "plain")):
             raise VfxStereoError("soft edges: radius >= 1, dilate >= 0, search >= 1, 0 <= snap < 0.5, passes >= 1, "
                                  "reach >= 0, relabel_radius >= 0, relabel_explained >= 0, relabel_floor >= 0, "
-                                 "min_separation >= 0, back 'farthest' or 'adjacent'")
+                                 "min_separation >= 0, back 'farthest' or 'adjacent', "
+                                 "separation_where 'everywhere' or 'plain'")
 
 
 def _sample(img: np.ndarray, X: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -406,6 +421,8 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     back_planes = np.unique(b)
     outer_px = None if matted is band else ~band[ys, xs]
     known = np.ones(N, bool)  # an outer pixel's background: plain where the views see it around the pixel
+    gated = p.min_separation > 0 and p.separation_where == "plain"
+    plain_bg = np.ones(N, bool)  # a pixel's background plain around it (``separation_where``)
     for n, bp in enumerate(back_planes):
         image, seen = background_image(views, warper, int(bp), disparity, dilate=p.dilate, tolerance=tol,
                                        gains=gains, zbuffers=grown)
@@ -416,6 +433,9 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
         if outer_px is not None and (sel & outer_px).any():
             o = np.nonzero(sel & outer_px)[0]
             known[o] = _seen_variance(image, seen, ys[o], xs[o], 4 * p.relabel_radius + 1) < OUTER_PLAIN
+        if gated and sel.any():
+            o = np.nonzero(sel)[0]
+            plain_bg[o] = _seen_variance(image, seen, ys[o], xs[o], 4 * p.radius + 1) < OUTER_PLAIN
         del image, seen
         report(progress, "soft-edges", n + 1, len(back_planes) + 1)
     del grown, behind
@@ -443,6 +463,8 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     # a sample the background's colour is foreground the depth map grew over the background (a plain wall
     # next to fur): it explains the pixel perfectly and separates nothing, so the prior would keep it solid
     walk = (p.min_separation * ((B[reference] ** 2).sum(axis=1) + SEPARATION_FLOOR)).astype(np.float32)
+    if gated:
+        walk = np.where(plain_bg, walk, np.float32(0.0)).astype(np.float32)
     _edge_kernels.colour_alpha(ys.astype(np.int64), xs.astype(np.int64), f, index, solid, plate,
                                np.ascontiguousarray(B[reference]), int(p.search), tie, walk,
                                a_colour, sep, resid)
