@@ -334,8 +334,11 @@ def _scene(name, layers, K, rng, description, elements_at, *, seed, noise=(0.003
 
 SCENES = {}
 """Scene builders by name: ``builder(K=5, data_dir=None) -> Scene``."""
-HELD_OUT = ("koala_slope", "artichoke_books", "flowers_fence", "doll_plaster", "ostrich_grille")
-"""Scenes kept out of tuning: scored only at the end (benchmarks/zkey_scenes.py --held-out)."""
+HELD_OUT = ("koala_slope", "artichoke_books", "flowers_fence", "doll_plaster", "ostrich_grille", "witch_monster",
+            "bear_pillar")
+"""Scenes kept out of tuning: scored only at the end (benchmarks/zkey_scenes.py --held-out). The first five have
+since been used to find the causes of their losing rows; ``witch_monster`` and ``bear_pillar`` (session 18) were
+scored once, after that session's changes."""
 
 
 def _register(fn):
@@ -495,6 +498,40 @@ def ostrich_grille(K: int = 5, data_dir=None) -> Scene:
                                          rng=rng), 14.5)
     return _scene("ostrich_grille", [wall, card_b, ostrich, grille], K, rng, ostrich_grille.__doc__,
                   (11.5, 6.0, 2.5), seed=11)
+
+
+@_register
+def witch_monster(K: int = 5, data_dir=None) -> Scene:
+    """(held out) A witch doll with broom bristles (GT18) and a pink monster's fur tuft (GT20), over the Midd1 photo
+    card (little texture) on a slanted plain wall: four depths."""
+    rng = np.random.default_rng(12)
+    cv = _canvas()
+    wall = PlanarLayer("plain wall", opaque(painted_wall(cv, (0.66, 0.68, 0.70), rng)), 1.1, gx=0.006)
+    midd = photo("middlebury2005_2006_halfsize/Midd1", (190, 200), data_dir=data_dir)
+    card_m = PlanarLayer("Midd1 card", place(opaque(midd), cv, 50, 170), 4.6, gy=-0.006)
+    witch = PlanarLayer("witch", place(matte("GT18", 270, data_dir=data_dir, crop=(0.0, 1.0, 0.2, 0.8)), cv, 30, 40),
+                        9.8)
+    monster = PlanarLayer("monster", place(matte("GT20", 170, data_dir=data_dir, crop=(0.0, 1.0, 0.1, 0.9)), cv,
+                                           160, 220), 13.9)
+    return _scene("witch_monster", [wall, card_m, witch, monster], K, rng, witch_monster.__doc__, (12.0, 7.0, 3.0),
+                  seed=12)
+
+
+@_register
+def bear_pillar(K: int = 5, data_dir=None) -> Scene:
+    """(held out) A teddy's fur (GT23) behind a sparse, thin wire fence, beside a plain dark pillar, over the Rocks1
+    photo as a slanted back wall: a plain surface in front of texture, fur and wires with holes; four depths."""
+    rng = np.random.default_rng(13)
+    cv = _canvas()
+    rocks = PlanarLayer("Rocks1", opaque(photo("middlebury2005_2006_halfsize/Rocks1", cv, data_dir=data_dir)), 1.7,
+                        gy=0.01)
+    pillar = PlanarLayer("pillar", place(opaque(painted_wall((cv[0], 70), (0.30, 0.26, 0.24), rng)), cv, 0, 270),
+                         5.2)
+    bear = PlanarLayer("teddy", place(matte("GT23", 230, data_dir=data_dir, crop=(0.0, 1.0, 0.05, 0.95)), cv, 70, 50),
+                       8.9)
+    wire = PlanarLayer("wire fence", fence(cv, spacing=46.0, thickness=1.6, angle=55.0, colour=(0.70, 0.70, 0.72),
+                                           rng=rng), 14.3)
+    return _scene("bear_pillar", [rocks, pillar, bear, wire], K, rng, bear_pillar.__doc__, (11.5, 7.0, 3.0), seed=13)
 
 
 def build(name: str, *, K: int = 5, data_dir=None) -> Scene:
