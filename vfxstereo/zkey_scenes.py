@@ -502,8 +502,7 @@ def ostrich_grille(K: int = 5, data_dir=None) -> Scene:
 
 @_register
 def witch_monster(K: int = 5, data_dir=None) -> Scene:
-    """(held out) A witch doll with broom bristles (GT18) and a pink monster's fur tuft (GT20), over the Midd1 photo
-    card (little texture) on a slanted plain wall: four depths."""
+    """(held out) A witch with broom bristles (GT18), a furry monster (GT20), a Midd1 card, a slanted plain wall."""
     rng = np.random.default_rng(12)
     cv = _canvas()
     wall = PlanarLayer("plain wall", opaque(painted_wall(cv, (0.66, 0.68, 0.70), rng)), 1.1, gx=0.006)
@@ -519,8 +518,7 @@ def witch_monster(K: int = 5, data_dir=None) -> Scene:
 
 @_register
 def bear_pillar(K: int = 5, data_dir=None) -> Scene:
-    """(held out) A teddy's fur (GT23) behind a sparse, thin wire fence, beside a plain dark pillar, over the Rocks1
-    photo as a slanted back wall: a plain surface in front of texture, fur and wires with holes; four depths."""
+    """(held out) A teddy's fur (GT23) behind a thin wire fence, a plain pillar, the Rocks1 photo as a slanted wall."""
     rng = np.random.default_rng(13)
     cv = _canvas()
     rocks = PlanarLayer("Rocks1", opaque(photo("middlebury2005_2006_halfsize/Rocks1", cv, data_dir=data_dir)), 1.7,
