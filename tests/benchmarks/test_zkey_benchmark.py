@@ -23,7 +23,8 @@ def test_the_summary_counts_wins_ties_and_losses_against_the_sgbm_key():
             _row((30.5, 19.0), (30.0, 20.0), K=2),  # beats the frame, loses the band
             _row((31.0, 150.0), (30.0, 160.0))]  # both exact on the band (above CAP): a tie
     text = zkey.tables(rows, "test")
-    m = re.search(r"beats the SGBM key on (\d+)/5 rows over the frame \(ties (\d+), loses (\d+)\) "
-                  r"and (\d+)/5 on the band \(ties (\d+), loses (\d+)\)", text)
+    m = re.search(r"beats the SGBM key on (\d+)/5 rows over the frame \(ties (\d+), (\d+) of them with both above "
+                  r"60 dB; loses (\d+)\) and (\d+)/5 on the band \(ties (\d+), (\d+) of them both above 60 dB; "
+                  r"loses (\d+)\)", text)
     assert m, text
-    assert tuple(map(int, m.groups())) == (3, 1, 1, 1, 3, 1)
+    assert tuple(map(int, m.groups())) == (3, 1, 0, 1, 1, 3, 1, 1)
