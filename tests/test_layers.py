@@ -358,21 +358,25 @@ def test_relabel_radius_opens_a_hole_the_depth_map_filled_and_writes_nothing_out
     assert (final[24][square] == 6.0).mean() > 0.98  # the square itself stays where it is
 
 
+def _grown_rim(textured_wall=False):
+    """The square (no hole) with its depth grown 6 px over the wall: views, warper, truth, depth, index, rim."""
+    from scipy import ndimage
+
+    s = _holed_square_scene(textured_wall=textured_wall, hole=False)
+    planes = np.arange(0.0, 8.5, 0.5)
+    warper = Warper(Camera.from_positions(s.positions, s.reference), planes, s.shape)
+    truth = s.gt_disparity(0.5)
+    disparity = ndimage.maximum_filter(truth, size=13).astype(np.float32)
+    rim = (disparity == 6.0) & (truth == 1.0)
+    return s.views(), warper, truth, disparity, layers.plane_index(disparity, planes), rim
+
+
 def test_a_rim_grown_over_a_plain_wall_goes_back_past_its_wall_coloured_samples():
     """The square's depth grown 6 px over the plain wall (window matching's fattening): a rim pixel's nearest solid
     foreground is more rim, the wall's colour, which explains it and separates nothing, so the depth map's prior
     keeps it solid. Walking past such samples (``min_separation``) reaches the square's orange, which puts the
     rim clear: the passes send it back to the wall, and the square stays."""
-    from scipy import ndimage
-
-    s = _holed_square_scene(hole=False)
-    views = s.views()
-    planes = np.arange(0.0, 8.5, 0.5)
-    warper = Warper(Camera.from_positions(s.positions, s.reference), planes, s.shape)
-    truth = s.gt_disparity(0.5)
-    disparity = ndimage.maximum_filter(truth, size=13).astype(np.float32)
-    index = layers.plane_index(disparity, planes)
-    rim = (disparity == 6.0) & (truth == 1.0)
+    views, warper, truth, disparity, index, rim = _grown_rim()
     square = truth == 6.0
     assert rim.sum() > 500
     final = {}
@@ -390,21 +394,12 @@ def test_walking_past_wall_coloured_samples_only_over_a_plain_background():
     """``separation_where="plain"`` walks past samples of the background's colour only where the background the
     views see around the pixel is plain: over the plain wall the grown rim goes back as with the walk everywhere;
     over a random-dot wall the walk is off, and the result is bit for bit the one without it."""
-    from scipy import ndimage
-
     def solve_rim(textured, **kw):
-        s = _holed_square_scene(textured_wall=textured, hole=False)
-        views = s.views()
-        planes = np.arange(0.0, 8.5, 0.5)
-        warper = Warper(Camera.from_positions(s.positions, s.reference), planes, s.shape)
-        truth = s.gt_disparity(0.5)
-        disparity = ndimage.maximum_filter(truth, size=13).astype(np.float32)
-        index = layers.plane_index(disparity, planes)
+        views, warper, _, disparity, index, rim = _grown_rim(textured)
         vol = layers.initial_volume(views, warper, 2, disparity, index, white=1.0)
         params = softedge.SoftEdgeParams(**kw)
         out, info = softedge.soften_edges(vol, views, warper, 2, disparity, index, params=params)
         final = softedge.soften_edges_passes(vol, views, warper, 2, disparity, index, params=params, white=1.0)[2]
-        rim = (disparity == 6.0) & (truth == 1.0)
         return out, info, float((final[rim] == 1.0).mean())
 
     _, _, plain_gated = solve_rim(False, min_separation=0.18, separation_where="plain")
