@@ -2,7 +2,7 @@
 
 Scenes: :mod:`vfxstereo.zkey_scenes` -- three or four planar layers each (slanted walls, photo cards, a fence,
 hair, fur, plants, a wire mesh with holes, low-texture painted walls from the alpha-matting and Middlebury
-sets), per-view exposure gains, vignetting and noise; 320 x 240, disparities 0.4-14.6 px per view step;
+sets), per-view exposure gains, vignetting and noise; 320 x 240, disparities 0.1-14.6 px per view step;
 solved on planes 0..16 step 0.5 (33 planes). Every scene is run with K = 5 views and as a stereo rig
 (K = 2, the reference the left view). The scenes in :data:`vfxstereo.zkey_scenes.HELD_OUT` were kept out of
 tuning: ``--held-out`` scores them (the default run scores the others).
