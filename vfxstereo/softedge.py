@@ -435,7 +435,7 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
         if outer_px is not None and (sel & outer_px).any():
             o = np.nonzero(sel & outer_px)[0]
             known[o] = _seen_variance(image, seen, ys[o], xs[o], 4 * p.relabel_radius + 1) < OUTER_PLAIN
-        if gated and sel.any():
+        if gated:  # every back plane in use has pixels (``np.unique(b)``)
             o = np.nonzero(sel)[0]
             plain_bg[o] = _seen_variance(image, seen, ys[o], xs[o], 4 * p.radius + 1) < OUTER_PLAIN
         del image, seen
@@ -465,8 +465,7 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     # a sample the background's colour is foreground the depth map grew over the background (a plain wall
     # next to fur): it explains the pixel perfectly and separates nothing, so the prior would keep it solid
     walk = (p.min_separation * ((B[reference] ** 2).sum(axis=1) + SEPARATION_FLOOR)).astype(np.float32)
-    if gated:
-        walk = np.where(plain_bg, walk, np.float32(0.0)).astype(np.float32)
+    walk[~plain_bg] = 0.0  # not walked past over a textured background (``separation_where``); all plain if not gated
     _edge_kernels.colour_alpha(ys.astype(np.int64), xs.astype(np.int64), f, index, solid, plate,
                                np.ascontiguousarray(B[reference]), int(p.search), tie, walk,
                                a_colour, sep, resid)
