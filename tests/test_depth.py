@@ -308,3 +308,88 @@ def test_a_near_square_at_the_frame_edge_keeps_its_depth_in_a_stereo_pair():
     off = depth.robust_depth(views, warper, 0, config=depth.DepthConfig(frame_edges=False))
     assert np.mean(np.abs(on.disparity[strip] - 6) <= 0.5) > 0.95
     assert np.mean(np.abs(off.disparity[strip] - 6) <= 0.5) < 0.5  # matching alone takes the background there
+
+
+def _gapped_scene(plain_background: bool, K: int = 5, shape=(48, 96), d_front: float = 12.0):
+    """A random-dot board at ``d_front`` with 6 x 6 px gaps every 12 px over a background at d = 0.
+
+    The board moves 12 px a view step: every other view sees the background behind a gap through another gap.
+    Whole-pixel shifts, rendered exactly: view k shows reference point x at u = x - d (k - ref). Returns
+    (views, warper, reference, gt disparity, gap mask, board mask).
+    """
+    rng = np.random.default_rng(7)
+    h, w = shape
+    ref = K // 2
+    back = (np.full((h, w, 3), 0.4, np.float32) if plain_background
+            else rng.uniform(0.05, 0.9, (h, w, 3)).astype(np.float32))
+    front = rng.uniform(0.05, 0.9, (h, w, 3)).astype(np.float32)
+    board = np.zeros((h, w), bool)
+    board[8:40, 30:66] = True
+    gaps = np.zeros((h, w), bool)
+    for y0 in range(12, 36, 12):
+        for x0 in range(34, 62, 12):
+            gaps[y0:y0 + 6, x0:x0 + 6] = True
+    board &= ~gaps
+    views = np.empty((K, h, w, 3), np.float32)
+    xs = np.arange(w)
+    for k in range(K):
+        src = np.clip(xs + int(d_front) * (k - ref), 0, w - 1)  # the reference column the board shows at u
+        on = board[:, src] & ((xs + int(d_front) * (k - ref) >= 0) & (xs + int(d_front) * (k - ref) < w))[None]
+        views[k] = np.where(on[..., None], front[:, src], back)
+    warper = Warper(Camera.from_positions(np.arange(K, dtype=np.float64), ref), np.arange(0.0, 14.5, 0.5), shape)
+    gt = np.where(board, d_front, 0.0).astype(np.float32)
+    return views, warper, ref, gt, gaps & (np.arange(w) > 30)[None], board
+
+
+def test_patch_errors_match_a_scipy_reference(rng):
+    from scipy import ndimage
+
+    views = rng.uniform(0.0, 1.0, (3, 20, 30, 3)).astype(np.float32)
+    warper = Warper(Camera.from_positions([0.0, 1.0, 2.5], 1), np.arange(0.0, 4.0, 0.5), (20, 30))
+    disparity = rng.uniform(0.0, 3.5, (20, 30)).astype(np.float32)
+    gains = np.array([[1.1, 0.9, 1.0], [1.0, 1.0, 1.0], [0.8, 1.2, 1.05]], np.float32)
+    got = depth.patch_errors(views, warper, 1, disparity, gains, jitter=0.0, size=3)
+    ys, xs = np.mgrid[0:20, 0:30]
+    for n, k in enumerate((0, 2)):
+        u = xs - disparity * (warper.camera.view_offset(k)[0])
+        s = np.stack([ndimage.map_coordinates(views[k][..., c], [ys, u], order=1, mode="nearest") for c in range(3)],
+                     -1) * gains[k]
+        e = ndimage.uniform_filter(((s - views[1]) ** 2).sum(-1), 3, mode="nearest")
+        inside = (u >= 0) & (u <= 29)
+        assert (np.isinf(got[n]) == ~inside).all()
+        np.testing.assert_allclose(got[n][inside], e[inside], rtol=1e-4, atol=1e-6)
+
+
+@pytest.mark.parametrize("K", [5, 2])
+def test_reopening_moves_filled_gaps_back_and_keeps_the_board(K):
+    views, warper, ref, gt, gaps, board = _gapped_scene(plain_background=False, K=K)
+    from scipy import ndimage
+
+    filled = np.where(ndimage.binary_closing(board | gaps, iterations=4), 12.0, 0.0).astype(np.float32)
+    assert (filled[gaps] == 12.0).all()  # the window's answer: the gaps take the board's depth
+    out, moved = depth.reopen_gaps(views, warper, ref, filled)
+    inner = ndimage.binary_erosion(gaps, iterations=1)  # a gap's rim pixels: the 3x3 window straddles the board
+    assert np.mean(np.abs(out[inner] - gt[inner]) <= 0.5) > 0.9
+    assert np.mean(np.abs(out[gaps] - gt[gaps]) <= 0.5) > 0.5
+    rim = ndimage.binary_dilation(~board, iterations=1) & board  # board pixels whose 3x3 window holds background
+    assert (out[board & ~rim] == 12.0).all()  # no board pixel moves, but for a few on the gaps' rims
+    assert (out[rim] != 12.0).mean() < 0.1
+    assert np.all(out <= filled) and moved == int((out != filled).sum())  # pixels only move back
+
+
+def test_reopening_leaves_gaps_over_a_plain_wall_alone():
+    """Over a plain background nothing in the views tells the two depths apart: nothing moves."""
+    views, warper, ref, gt, gaps, board = _gapped_scene(plain_background=True)
+    from scipy import ndimage
+
+    filled = np.where(ndimage.binary_closing(board | gaps, iterations=4), 12.0, 0.0).astype(np.float32)
+    out, moved = depth.reopen_gaps(views, warper, ref, filled)
+    assert moved == 0 and np.array_equal(out, filled)
+
+
+def test_reopen_settings_are_checked():
+    from vfxstereo.errors import VfxStereoError
+
+    for bad in ({"reopen_passes": -1}, {"reopen_radii": (0,)}, {"reopen_ratio": 0.0}, {"reopen_floor": -1.0}):
+        with pytest.raises(VfxStereoError):
+            depth.DepthConfig(**bad)

@@ -469,3 +469,39 @@ def edge_refine(disparity, r, jump, cref, vref, cviews, vviews, offsets, zbufs, 
             elif not is_front and cf + n * margin < cb:
                 out[y, x] = front
                 state[y, x] = 3
+
+
+# --------------------------------------------------------------------------------------------------------
+# Reopening filled gaps: a view's colour at each reference pixel's own disparity
+
+
+@njit(cache=True, parallel=True, nogil=True)
+def colour_error(view, ref, gain, u, v, out):
+    """``|gain * view(u, v) - ref|^2`` per reference pixel, the view sampled bilinearly at ``(u, v)``.
+
+    Positions outside the view (or NaN) are clamped to its border here; the caller masks them.
+    """
+    H, W = ref.shape[:2]
+    h, w = view.shape[:2]
+    for y in prange(H):
+        for x in range(W):
+            uu = u[y, x]
+            vv = v[y, x]
+            if not (uu == uu and vv == vv):
+                uu = 0.0
+                vv = 0.0
+            uu = min(max(uu, 0.0), w - 1.0)
+            vv = min(max(vv, 0.0), h - 1.0)
+            x0 = min(int(uu), w - 2) if w > 1 else 0
+            y0 = min(int(vv), h - 2) if h > 1 else 0
+            fx = uu - x0
+            fy = vv - y0
+            x1 = min(x0 + 1, w - 1)
+            y1 = min(y0 + 1, h - 1)
+            e = 0.0
+            for c in range(3):
+                s = ((1.0 - fy) * ((1.0 - fx) * view[y0, x0, c] + fx * view[y0, x1, c])
+                     + fy * ((1.0 - fx) * view[y1, x0, c] + fx * view[y1, x1, c]))
+                dd = gain[c] * s - ref[y, x, c]
+                e += dd * dd
+            out[y, x] = e

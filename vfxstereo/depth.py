@@ -31,6 +31,10 @@ This stage gives the layered model a dependable front surface instead, from clas
 8. Optionally (``edge_refine``), the pixels near depth edges are re-decided between their neighbourhood's
    front and back disparity by a pixelwise cost with colour-adaptive support weights over the views that see
    the back candidate (:func:`refine_edges`), against the foreground fattening of steps 1-3.
+9. **Reopened gaps** (``reopen``, :func:`reopen_gaps`): on the whole plate, a pixel moves back to the farthest
+   surface within 8-64 px where, pixel by pixel (3 x 3), some view sees that surface with the plate's colour
+   and none sees the pixel's own depth about as well: the gaps of leaves, a canopy or wicker that the window
+   of steps 1-3 filled with the foreground's depth.
 
 Measured (``benchmarks/middlebury.py``, all 31 sets, one published px apart, the GT's view as reference):
 0.50x OpenCV SGBM's bad pixels on average (9.8 % against 19.5 %), at most 0.89x (Midd1); from the classic
@@ -180,12 +184,36 @@ class DepthConfig:
     ("confident": a fattened foreground does not hide its own background) or of the whole map ("all")."""
     edge_passes: int = 1
     """Passes of step 8 (later passes see z-buffers of the refined map)."""
+    reopen: bool = True
+    """Step 9: reopen the gaps the window filled (:func:`reopen_gaps`). A pixel moves back to a farther surface
+    around it where some view sees that surface with the plate's colour there and none sees the pixel's own
+    depth as well. Measured in session 19 (see the README's z-key table)."""
+    reopen_radii: tuple[int, ...] = (8, 16, 32, 64)
+    """Candidate back surfaces: the farthest disparity within each of these distances (px)."""
+    reopen_jump: float = 1.0
+    """A candidate counts only this much farther than the pixel or more (px per view step; the soft edges' jump)."""
+    reopen_ratio: float = 0.5
+    """A pixel moves where the candidate's error is below this share of its own depth's error."""
+    reopen_floor: float = 0.002
+    """... and only where its own depth's error exceeds this (colour^2, the views' noise and resampling) ..."""
+    reopen_relative: float = 0.01
+    """... and this share of the pixel's squared colour ``|I|^2``: bright, finely textured surfaces resample
+    with errors of that size at their own depth (a plush toy's fur moved back to the wall 12 px behind it
+    at 0)."""
+    reopen_jitter: float = 0.5
+    """Both depths are tried within +- this (px per view step; 5 samples): sub-pixel misregistration of a fine
+    texture must not count against a depth."""
+    reopen_passes: int = 2
+    """Passes of step 9 (the 3x3 errors of a pixel's neighbours change as they move)."""
 
     def __post_init__(self):
         if (self.box < 1 or self.paths not in (4, 8) or self.median < 0 or self.visibility_passes < 0
-                or self.flat_window < 1):
+                or self.flat_window < 1 or self.reopen_passes < 0 or any(r < 1 for r in self.reopen_radii)
+                or not 0 < self.reopen_ratio <= 1 or self.reopen_floor < 0 or self.reopen_relative < 0
+                or self.reopen_jitter < 0 or self.reopen_jump < 0):
             raise VfxStereoError("depth settings: box >= 1, paths 4 or 8, median >= 0, visibility_passes >= 0, "
-                                 "flat_window >= 1")
+                                 "flat_window >= 1, reopen_passes >= 0, reopen_radii >= 1, 0 < reopen_ratio <= 1, "
+                                 "reopen_floor, reopen_relative, reopen_jitter, reopen_jump >= 0")
         if not (0 <= self.P1 <= self.P2):
             raise VfxStereoError(f"SGM needs 0 <= P1 <= P2, got P1={self.P1}, P2={self.P2}")
         if not (self.strip_memory > 0 and self.strip_margin >= 0):
@@ -520,7 +548,8 @@ def robust_depth(views: np.ndarray, warper, reference: int, *, config: DepthConf
         raise VfxStereoError(f"reference view {reference} is not one of the {K} views")
     plan = [(0, h, 0, h)] if keep_volume else strip_plan(warper, config)
     if len(plan) == 1:
-        return _robust_depth(views, warper, reference, config, progress, keep_volume)
+        return _reopened(_robust_depth(views, warper, reference, config, progress, keep_volume), views, warper,
+                         reference, config, progress)
     from vfxstereo.layers import plane_index
     from vfxstereo.warp import Warper
 
@@ -535,8 +564,21 @@ def robust_depth(views: np.ndarray, warper, reference: int, *, config: DepthConf
         for name, seconds in part.timings.items():
             timings[name] = timings.get(name, 0.0) + seconds
         report(progress, "depth strips", n + 1, len(plan))
-    return DepthResult(disparity=disparity, index=plane_index(disparity, warper.disparities), reliable=reliable,
-                       timings=timings)
+    return _reopened(DepthResult(disparity=disparity, index=plane_index(disparity, warper.disparities),
+                                 reliable=reliable, timings=timings), views, warper, reference, config, progress)
+
+
+def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConfig, progress) -> DepthResult:
+    """``res`` after step 9 (``config.reopen``), on the whole plate: its candidates reach 64 px."""
+    if not config.reopen or config.reopen_passes == 0 or views.shape[0] < 2:
+        return res
+    from vfxstereo.layers import plane_index
+
+    t0 = time.perf_counter()
+    res.disparity = reopen_gaps(views, warper, reference, res.disparity, config=config, progress=progress)[0]
+    res.index = plane_index(res.disparity, warper.disparities)
+    res.timings["reopen"] = time.perf_counter() - t0
+    return res
 
 
 def _robust_depth(views, warper, reference, config, progress, keep_volume) -> DepthResult:
@@ -626,6 +668,93 @@ def _robust_depth(views, warper, reference, config, progress, keep_volume) -> De
                        aggregated=S if keep_volume else None,
                        visible=sum(c.astype(np.uint8) for c in count.values()) if keep_volume else None,
                        timings=timings)
+
+
+JITTER_STEPS = 5
+"""Samples of ``DepthConfig.reopen_jitter`` (evenly over +- it)."""
+
+
+def patch_errors(views: np.ndarray, warper, reference: int, disparity: np.ndarray, gains: np.ndarray, *,
+                 jitter: float = 0.0, size: int = 3) -> np.ndarray:
+    """(K - 1, H, W) colour error of each other view at each reference pixel's disparity, over a small window.
+
+    For view k (in order, the reference left out): ``|g_k I_k(u) - I_ref|^2`` with ``u`` where the pixel's own
+    disparity puts it in view k (bilinear), averaged over a ``size`` x ``size`` window, the least over
+    disparities within +- ``jitter`` (:data:`JITTER_STEPS` samples); inf where the pixel lands outside view k.
+    """
+    from scipy import ndimage
+
+    from vfxstereo import _depth_kernels
+
+    views = np.asarray(views, np.float32)
+    K, h, w = views.shape[:3]
+    ref = np.ascontiguousarray(views[reference])
+    d = np.asarray(disparity, np.float64)
+    shifts = np.linspace(-jitter, jitter, JITTER_STEPS) if jitter > 0 else np.zeros(1)
+    out = np.full((K - 1, h, w), np.inf, np.float32)
+    e = np.empty((h, w), np.float32)
+    for n, k in enumerate(k for k in range(K) if k != reference):
+        view = np.ascontiguousarray(views[k])
+        gain = np.asarray(gains[k], np.float32)
+        for j in shifts:
+            u, v = warper.project(d + j, k)
+            inside = (u >= 0) & (u <= w - 1) & (v >= 0) & (v <= h - 1)  # False where NaN
+            _depth_kernels.colour_error(view, ref, gain, u, v, e)
+            err = ndimage.uniform_filter(e, size, mode="nearest") if size > 1 else e.copy()
+            np.minimum(out[n], np.where(inside, err, np.inf), out=out[n])
+    return out
+
+
+def reopen_gaps(views: np.ndarray, warper, reference: int, disparity: np.ndarray, *,
+                config: DepthConfig | None = None, progress: Progress | None = None) -> tuple[np.ndarray, int]:
+    """Step 9: pixels the window and SGM gave a nearer surface's depth move back where the views say so.
+
+    Window matching and SGM fill the gaps of a dense foreground (leaves, a canopy, wicker) and grow its
+    edges: in a window that straddles a leaf, the leaf's texture wins. Pixel by pixel (3 x 3), the views
+    can tell: at a gap pixel's true depth some view sees the surface behind with the plate's colour, while
+    at the leaf's depth every view shows a different point of that surface. For each pixel the candidates
+    are the farthest disparities within ``reopen_radii`` px (farther than it by ``reopen_jump`` or more); it
+    moves to the candidate with the least error where that error, in the best view, is below
+    ``reopen_ratio`` of its own depth's in the best view of the same views (:func:`patch_errors`), and its
+    own depth's error is above the noise (``reopen_floor``, ``reopen_relative``). Pixels only move back.
+    Where nothing tells the depths apart (a plain wall) both errors are noise and nothing moves.
+    Returns ``(disparity, moved)``.
+    """
+    from scipy import ndimage
+
+    from vfxstereo.layers import view_gains
+
+    config = config or DepthConfig()
+    views = np.asarray(views, np.float32)
+    d = np.array(disparity, np.float32, copy=True)
+    gains = view_gains(views, warper, reference, d)
+    floor = np.maximum(config.reopen_floor, config.reopen_relative * (views[reference] ** 2).sum(axis=2))
+    moved = 0
+    total = config.reopen_passes * (len(config.reopen_radii) + 1)
+    for p in range(config.reopen_passes):
+        own = patch_errors(views, warper, reference, d, gains, jitter=config.reopen_jitter)
+        best = np.full(d.shape, np.inf, np.float32)
+        to = d.copy()
+        for n, r in enumerate(config.reopen_radii):
+            cand = ndimage.minimum_filter(d, 2 * r + 1, mode="nearest")
+            farther = cand <= d - config.reopen_jump
+            if farther.any():
+                err = patch_errors(views, warper, reference, np.where(farther, cand, d), gains,
+                                   jitter=config.reopen_jitter)
+                both = np.isfinite(err) & np.isfinite(own)
+                e_back = np.where(both, err, np.inf).min(axis=0)
+                e_own = np.where(both, own, np.inf).min(axis=0)
+                ok = farther & np.isfinite(e_own) & (e_back < config.reopen_ratio * e_own) & (e_own > floor)
+                ok &= e_back < best
+                best[ok] = e_back[ok]
+                to[ok] = cand[ok]
+            report(progress, "reopen", p * (len(config.reopen_radii) + 1) + n + 2, total)
+        move = np.isfinite(best)
+        if not move.any():
+            break
+        moved += int(move.sum())
+        d[move] = to[move]
+    return d, moved
 
 
 def _edge_inputs(prepared, warper, reference: int, disparity: np.ndarray, config: DepthConfig, confident: bool):
