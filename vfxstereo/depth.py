@@ -689,15 +689,23 @@ def patch_errors(views: np.ndarray, warper, reference: int, disparity: np.ndarra
     views = np.asarray(views, np.float32)
     K, h, w = views.shape[:3]
     ref = np.ascontiguousarray(views[reference])
-    d = np.asarray(disparity, np.float64)
+    d = np.asarray(disparity, np.float32)
     shifts = np.linspace(-jitter, jitter, JITTER_STEPS) if jitter > 0 else np.zeros(1)
     out = np.full((K - 1, h, w), np.inf, np.float32)
     e = np.empty((h, w), np.float32)
+    rectified = warper.shifts(reference) is not None
+    if rectified:  # Eq. A1 is a shift: no homogeneous coordinates (warper.project), 2x faster at HD
+        ys, xs = (g.astype(np.float32) for g in np.mgrid[0:h, 0:w])
     for n, k in enumerate(k for k in range(K) if k != reference):
         view = np.ascontiguousarray(views[k])
         gain = np.asarray(gains[k], np.float32)
+        off = warper.camera.view_offset(k).astype(np.float32)
         for j in shifts:
-            u, v = warper.project(d + j, k)
+            if rectified:
+                dj = d + np.float32(j)
+                u, v = xs - dj * off[0], ys - dj * off[1]
+            else:
+                u, v = warper.project(d + np.float32(j), k)
             inside = (u >= 0) & (u <= w - 1) & (v >= 0) & (v <= h - 1)  # False where NaN
             _depth_kernels.colour_error(view, ref, gain, u, v, e)
             err = ndimage.uniform_filter(e, size, mode="nearest") if size > 1 else e.copy()
