@@ -387,6 +387,20 @@ def test_reopening_leaves_gaps_over_a_plain_wall_alone():
     assert moved == 0 and np.array_equal(out, filled)
 
 
+def test_reopening_is_off_by_default_and_runs_in_the_stage_when_asked():
+    from dataclasses import replace
+
+    views, warper, ref, gt, gaps, board = _gapped_scene(plain_background=False)
+    assert not depth.DepthConfig().reopen
+    on = depth.robust_depth(views, warper, ref, config=replace(depth.DepthConfig(), reopen=True))
+    off = depth.robust_depth(views, warper, ref)
+    assert "reopen" in on.timings and "reopen" not in off.timings
+    assert np.all(on.disparity <= off.disparity)  # only back
+    from vfxstereo.layers import plane_index
+
+    np.testing.assert_array_equal(on.index, plane_index(on.disparity, warper.disparities))
+
+
 def test_reopen_settings_are_checked():
     from vfxstereo.errors import VfxStereoError
 

@@ -235,6 +235,8 @@ class SolveConfig:
                                                            "census_radius": tuple(dc["matching"]["census_radius"])})
         if "edge_census_radius" in dc:
             dc["edge_census_radius"] = tuple(dc["edge_census_radius"])
+        if "reopen_radii" in dc:
+            dc["reopen_radii"] = tuple(dc["reopen_radii"])
         d["depth_config"] = _depth.DepthConfig(**dc)
         d["soft_edge"] = _softedge.SoftEdgeParams(**d["soft_edge"])
         return cls(**d)

@@ -31,7 +31,7 @@ This stage gives the layered model a dependable front surface instead, from clas
 8. Optionally (``edge_refine``), the pixels near depth edges are re-decided between their neighbourhood's
    front and back disparity by a pixelwise cost with colour-adaptive support weights over the views that see
    the back candidate (:func:`refine_edges`), against the foreground fattening of steps 1-3.
-9. **Reopened gaps** (``reopen``, :func:`reopen_gaps`): on the whole plate, a pixel moves back to the farthest
+9. Optionally (``reopen``, :func:`reopen_gaps`), reopened gaps: on the whole plate, a pixel moves back to the farthest
    surface within 8-64 px where, pixel by pixel (3 x 3), some view sees that surface with the plate's colour
    and none sees the pixel's own depth about as well: the gaps of leaves, a canopy or wicker that the window
    of steps 1-3 filled with the foreground's depth.
@@ -184,10 +184,19 @@ class DepthConfig:
     ("confident": a fattened foreground does not hide its own background) or of the whole map ("all")."""
     edge_passes: int = 1
     """Passes of step 8 (later passes see z-buffers of the refined map)."""
-    reopen: bool = True
+    reopen: bool = False
     """Step 9: reopen the gaps the window filled (:func:`reopen_gaps`). A pixel moves back to a farther surface
     around it where some view sees that surface with the plate's colour there and none sees the pixel's own
-    depth as well. Measured in session 19 (see the README's z-key table)."""
+    depth as well. Off: it won on the z-key tuning scenes and lost on the held-out ones, scored last (frame /
+    band dB, session 19): tuning 56 rows 30.06 / 21.97 -> 30.57 / 22.47 (tree_cloth +1.6 / +1.5 at K = 5 and
+    2, its K = 2 rows that lost to the SGBM key now win; doll_plant K = 5 +1.0 / +1.1; worst wicker_wall
+    K = 5 band -0.44); held-out 70 rows 25.98 / 19.65 -> 25.22 / 19.01 (artichoke_books K = 2 -3.7 / -5.3:
+    card pixels beside the artichoke's filaments moved to the wall behind the element; bear_pillar K = 2
+    -3.4 / -2.5, flowers_fence K = 2 -1.5 / -1.5; witch_monster K = 5 +0.4 / +0.6, fence_dof K = 2 +1.0 /
+    +1.0); all 126 rows 27.79 / 20.68 -> 27.60 / 20.55. With one other view (K = 2) the best view is the only
+    view, and a half-occluded pixel's own depth fails there while a chance match elsewhere passes the ratio.
+    Middlebury's 31 sets, depth alone: 9.76 -> 9.75 % bad (no set worse by more than 0.02; tsukuba 4.43 ->
+    4.32, Baby1 4.10 -> 4.02), at 50-90 % of the depth stage's own time at their sizes."""
     reopen_radii: tuple[int, ...] = (8, 16, 32, 64)
     """Candidate back surfaces: the farthest disparity within each of these distances (px)."""
     reopen_jump: float = 1.0
