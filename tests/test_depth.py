@@ -360,14 +360,19 @@ def test_patch_errors_match_a_scipy_reference(rng):
         np.testing.assert_allclose(got[n][inside], e[inside], rtol=1e-4, atol=1e-6)
 
 
-@pytest.mark.parametrize("K", [5, 2])
-def test_reopening_moves_filled_gaps_back_and_keeps_the_board(K):
-    views, warper, ref, gt, gaps, board = _gapped_scene(plain_background=False, K=K)
+@pytest.mark.parametrize("K,views_needed", [(5, 2), (2, 1)])
+def test_reopening_moves_filled_gaps_back_and_keeps_the_board(K, views_needed):
+    from dataclasses import replace
+
     from scipy import ndimage
 
+    views, warper, ref, gt, gaps, board = _gapped_scene(plain_background=False, K=K)
     filled = np.where(ndimage.binary_closing(board | gaps, iterations=4), 12.0, 0.0).astype(np.float32)
     assert (filled[gaps] == 12.0).all()  # the window's answer: the gaps take the board's depth
-    out, moved = depth.reopen_gaps(views, warper, ref, filled)
+    config = replace(depth.DepthConfig(), reopen_views=views_needed)
+    if K - 1 < depth.DepthConfig().reopen_views:  # by default a stereo pair's one other view cannot decide
+        assert depth.reopen_gaps(views, warper, ref, filled)[1] == 0
+    out, moved = depth.reopen_gaps(views, warper, ref, filled, config=config)
     inner = ndimage.binary_erosion(gaps, iterations=1)  # a gap's rim pixels: the 3x3 window straddles the board
     assert np.mean(np.abs(out[inner] - gt[inner]) <= 0.5) > 0.9
     assert np.mean(np.abs(out[gaps] - gt[gaps]) <= 0.5) > 0.5
@@ -404,6 +409,7 @@ def test_reopening_is_off_by_default_and_runs_in_the_stage_when_asked():
 def test_reopen_settings_are_checked():
     from vfxstereo.errors import VfxStereoError
 
-    for bad in ({"reopen_passes": -1}, {"reopen_radii": (0,)}, {"reopen_ratio": 0.0}, {"reopen_floor": -1.0}):
+    for bad in ({"reopen_passes": -1}, {"reopen_radii": (0,)}, {"reopen_ratio": 0.0}, {"reopen_floor": -1.0},
+                {"reopen_views": 0}):
         with pytest.raises(VfxStereoError):
             depth.DepthConfig(**bad)
