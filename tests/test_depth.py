@@ -192,6 +192,65 @@ def test_the_box_filter_kernel_is_scipys_uniform_filter(rng):
         assert depth.box_filter(cost, size, out=out) is out
 
 
+def _guided_reference(cost, guide, radius, eps):
+    """He et al.'s colour guided filter plane by plane, a 3x3 solve per pixel (slow, plain)."""
+    from scipy import ndimage
+
+    def mean(x):
+        return ndimage.uniform_filter(x, 2 * radius + 1, mode="nearest")
+
+    I = guide.astype(np.float64)
+    mI = np.stack([mean(I[..., c]) for c in range(3)], -1)
+    sigma = np.empty(I.shape[:2] + (3, 3))
+    for i in range(3):
+        for j in range(3):
+            sigma[..., i, j] = mean(I[..., i] * I[..., j]) - mI[..., i] * mI[..., j] + (eps if i == j else 0.0)
+    out = np.empty(cost.shape)
+    for d in range(cost.shape[2]):
+        p = cost[..., d].astype(np.float64)
+        mp = mean(p)
+        cov = np.stack([mean(I[..., c] * p) - mI[..., c] * mp for c in range(3)], -1)
+        a = np.linalg.solve(sigma, cov[..., None])[..., 0]
+        b = mp - (a * mI).sum(-1)
+        out[..., d] = sum(mean(a[..., c]) * I[..., c] for c in range(3)) + mean(b)
+    return out
+
+
+def test_the_guided_filter_matches_a_plain_reference_and_gives_the_box_gap(rng):
+    from scipy import ndimage
+
+    cost = rng.uniform(0, 2, (21, 27, 7)).astype(np.float32)
+    guide = rng.uniform(0, 1, (21, 27, 3)).astype(np.float32)
+    guide[:, 13:] *= 0.3  # a colour edge
+    for radius, eps in ((1, 1e-3), (2, 1e-2)):
+        out, gap = depth.guided_filter(cost, guide, radius, eps, chunk=3)  # chunks that do not divide D
+        np.testing.assert_allclose(out, _guided_reference(cost, guide, radius, eps), rtol=0, atol=2e-4)
+        box = ndimage.uniform_filter(cost.astype(np.float64), size=(2 * radius + 1,) * 2 + (1,), mode="nearest")
+        np.testing.assert_allclose(gap, box.mean(2) - box.min(2), rtol=0, atol=1e-5)
+    flat = np.full_like(guide, 0.5)  # no colour to follow: a box of a box
+    out, _ = depth.guided_filter(cost, flat, 2, 1e-3)
+    np.testing.assert_allclose(out, depth.box_filter(depth.box_filter(cost, 5), 5), atol=1e-5)
+
+
+def test_the_guided_window_does_not_fatten_a_textured_surface_over_a_weak_one(rng):
+    """Left of column 20 a strongly textured red surface prefers plane 1, right of it a weakly textured blue one
+    plane 0: a box carries the strong costs 2 px across the edge, the guided filter stops at the colour edge."""
+    h, w = 24, 40
+    guide = np.zeros((h, w, 3), np.float32)
+    guide[:, :20] = (0.8, 0.2, 0.1)
+    guide[:, 20:] = (0.1, 0.3, 0.8)
+    guide += rng.normal(0, 0.01, guide.shape).astype(np.float32)
+    cost = np.zeros((h, w, 2), np.float32)
+    cost[:, :20, 0] = 1.0  # the strong side: plane 0 costs 1
+    cost[:, 20:, 1] = 0.2  # the weak side: plane 1 costs 0.2
+    cost += rng.normal(0, 0.01, cost.shape).astype(np.float32)
+    inner = slice(3, -3)
+    box_front = (depth.box_filter(cost, 5).argmin(2) == 1)[inner]
+    guided_front = (depth.guided_filter(cost, guide, 2, 1e-3)[0].argmin(2) == 1)[inner]
+    assert box_front[:, 20:22].all()  # the box fattens the strong surface by 2 px
+    assert guided_front[:, :20].all() and not guided_front[:, 20:].any()
+
+
 def _square_scene(seed=5, shape=(40, 56)):
     """A random-dot square at d = 6 over a random-dot background at d = 0 (K = 5, whole-pixel shifts)."""
     h, w = shape
@@ -404,6 +463,20 @@ def test_reopening_is_off_by_default_and_runs_in_the_stage_when_asked():
     from vfxstereo.layers import plane_index
 
     np.testing.assert_array_equal(on.index, plane_index(on.disparity, warper.disparities))
+
+
+def test_the_guided_window_runs_in_the_stage_when_asked_and_its_settings_are_checked():
+    s = _rds(seed=4, shape=(40, 56))
+    warper = Warper(s.camera, s.disparities, s.shape)
+    box = depth.robust_depth(s.views, warper, s.reference).disparity
+    guided = depth.robust_depth(s.views, warper, s.reference,
+                                config=depth.DepthConfig(aggregation="guided")).disparity
+    gt = s.gt_disparity(0.5)
+    assert not np.array_equal(box, guided)
+    assert np.mean(np.abs(guided - gt)[4:-4, 10:-10] <= 0.5) > 0.97
+    for bad in ({"aggregation": "median"}, {"guided_radius": 0}, {"guided_eps": 0.0}):
+        with pytest.raises(depth.VfxStereoError):
+            depth.DepthConfig(**bad)
 
 
 def test_reopen_settings_are_checked():
