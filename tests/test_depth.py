@@ -181,15 +181,17 @@ def test_strips_match_the_whole_solve_on_a_layered_plate():
     np.testing.assert_array_equal(strips.index, plane_index(strips.disparity, warper.disparities))
 
 
-def test_the_box_filter_kernel_is_scipys_uniform_filter(rng):
+@pytest.mark.parametrize("planes", [1, 7, 600])  # OpenCV's blur up to 512 planes, the numba kernel beyond
+def test_the_box_filter_is_scipys_uniform_filter(rng, planes):
     from scipy import ndimage
 
-    cost = rng.uniform(0, 2, (23, 31, 7)).astype(np.float32)
-    for size in (3, 5, 7):
+    cost = rng.uniform(0, 2, (23, 31, planes)).astype(np.float32)
+    for size in (3, 4, 5, 7):
         ref = ndimage.uniform_filter(cost.astype(np.float64), size=(size, size, 1), mode="nearest")
         np.testing.assert_allclose(depth.box_filter(cost, size), ref, rtol=0, atol=2e-6)
         out = np.empty_like(cost)
         assert depth.box_filter(cost, size, out=out) is out
+        np.testing.assert_allclose(out, ref, rtol=0, atol=2e-6)
 
 
 def _guided_reference(cost, guide, radius, eps):

@@ -298,6 +298,62 @@ def box_mean(cost, r, out):
 
 
 # --------------------------------------------------------------------------------------------------------
+# The colour guided filter of a chunk of planes (depth.guided_filter)
+
+
+@njit(cache=True, parallel=True, nogil=True)
+def guided_stack(I, cost, d0, n, out):
+    """``out`` (H, W, 4n): planes ``d0 .. d0 + n`` of ``cost`` and their products with the 3 guide channels."""
+    H, W = cost.shape[:2]
+    for y in prange(H):
+        for x in range(W):
+            for k in range(n):
+                p = cost[y, x, d0 + k]
+                out[y, x, k] = p
+                for c in range(3):
+                    out[y, x, (c + 1) * n + k] = I[y, x, c] * p
+
+
+@njit(cache=True, parallel=True, nogil=True)
+def guided_coefficients(mI, inv, m, n, out, total, least):
+    """The guided filter's coefficients from the window means ``m`` of :func:`guided_stack`'s planes.
+
+    ``out`` (H, W, 4n) = (a_0, a_1, a_2, b) per plane, ``a = inv . (mean(I p) - mean(I) mean(p))``,
+    ``b = mean(p) - a . mean(I)``; the means of p are summed into ``total`` and their least kept in ``least``.
+    """
+    H, W = m.shape[:2]
+    for y in prange(H):
+        for x in range(W):
+            for k in range(n):
+                mp = m[y, x, k]
+                total[y, x] += mp
+                if mp < least[y, x]:
+                    least[y, x] = mp
+                c0 = m[y, x, n + k] - mI[y, x, 0] * mp
+                c1 = m[y, x, 2 * n + k] - mI[y, x, 1] * mp
+                c2 = m[y, x, 3 * n + k] - mI[y, x, 2] * mp
+                b = mp
+                for c in range(3):
+                    a = inv[y, x, c, 0] * c0 + inv[y, x, c, 1] * c1 + inv[y, x, c, 2] * c2
+                    out[y, x, c * n + k] = a
+                    b -= a * mI[y, x, c]
+                out[y, x, 3 * n + k] = b
+
+
+@njit(cache=True, parallel=True, nogil=True)
+def guided_apply(I, mab, d0, n, out):
+    """``out[..., d0 + k] = mean(a) . I + mean(b)`` from the window means ``mab`` of the coefficients."""
+    H, W = I.shape[:2]
+    for y in prange(H):
+        for x in range(W):
+            for k in range(n):
+                q = mab[y, x, 3 * n + k]
+                for c in range(3):
+                    q += mab[y, x, c * n + k] * I[y, x, c]
+                out[y, x, d0 + k] = q
+
+
+# --------------------------------------------------------------------------------------------------------
 # Filling unreliable pixels
 
 
