@@ -138,5 +138,6 @@ def test_the_soft_preset_is_robust_with_soft_edges_that_follow_the_matte():
     assert soft.soft_edge.passes == robust.soft_edge.passes == 8
     assert soft.soft_edge.relabel_explained == 0.0 < robust.soft_edge.relabel_explained  # unguarded
     assert soft.depth_config.reopen and not robust.depth_config.reopen  # and reopens gaps between leaves
+    assert soft.depth_config.aggregation == "box" and robust.depth_config.aggregation == "guided"  # as measured
     assert soft.replace(soft_edge=robust.soft_edge, depth_config=robust.depth_config) == robust
     assert SolveConfig.from_dict(soft.to_dict()) == soft  # it round-trips through a stack's metadata

@@ -467,12 +467,11 @@ def test_reopening_is_off_by_default_and_runs_in_the_stage_when_asked():
     np.testing.assert_array_equal(on.index, plane_index(on.disparity, warper.disparities))
 
 
-def test_the_guided_window_runs_in_the_stage_when_asked_and_its_settings_are_checked():
+def test_the_guided_window_is_the_default_the_box_runs_when_asked_and_settings_are_checked():
     s = _rds(seed=4, shape=(40, 56))
     warper = Warper(s.camera, s.disparities, s.shape)
-    box = depth.robust_depth(s.views, warper, s.reference).disparity
-    guided = depth.robust_depth(s.views, warper, s.reference,
-                                config=depth.DepthConfig(aggregation="guided")).disparity
+    box = depth.robust_depth(s.views, warper, s.reference, config=depth.DepthConfig(aggregation="box")).disparity
+    guided = depth.robust_depth(s.views, warper, s.reference).disparity
     gt = s.gt_disparity(0.5)
     assert not np.array_equal(box, guided)
     assert np.mean(np.abs(guided - gt)[4:-4, 10:-10] <= 0.5) > 0.97

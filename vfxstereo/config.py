@@ -280,8 +280,9 @@ PRESETS: dict[str, dict] = {
 PRESETS["soft"] = {**PRESETS["robust"], "soft_edge": _softedge.SoftEdgeParams(relabel_explained=0.0,
                                                                             min_separation=0.18,
                                                                             separation_where="everywhere"),
-                   # foliage over textured backgrounds: the depth stage's gap reopening (DepthConfig.reopen)
-                   "depth_config": _depth.DepthConfig(reopen=True)}
+                   # foliage over textured backgrounds: the depth stage's gap reopening (DepthConfig.reopen); its
+                   # window stays the box it was measured with (the guided window under soft is not measured)
+                   "depth_config": _depth.DepthConfig(reopen=True, aggregation="box")}
 PRESETS["zkey"] = PRESETS["robust"]  # the z-keying default, by its old name
 
 DEFAULT_PRESET = "robust"

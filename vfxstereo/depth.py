@@ -8,8 +8,10 @@ This stage gives the layered model a dependable front surface instead, from clas
    plane, each view's costs centred per pixel (``centre``), averaged over the views that see the cell.
    Census is robust to exposure and vignetting differences between cameras; each view's term saturates, so
    an occluded view cannot outvote the rest.
-2. **Window** (``box``): the cost averaged over a small square window, which steadies flat surfaces; then the
-   flat-surface bias (``far_bias``, :func:`flat_bias`).
+2. **Window** (``aggregation``): the cost filtered over a small window by the reference's colour guided filter
+   (:func:`guided_filter`; a plain box with ``aggregation="box"``), which steadies flat surfaces without
+   carrying a textured surface's costs across colour edges; then the flat-surface bias (``far_bias``,
+   :func:`flat_bias`).
 3. **Semi-global matching** (:mod:`vfxstereo.sgm`): 8 paths, P2 lowered at image edges.
 4. **Winner and sub-pixel**: the plane of least aggregated cost, refined by a parabola (Section 8.1).
 5. **Visibility** (the paper's Section 5 made from a depth map): the disparity map is forward-projected
@@ -38,9 +40,10 @@ This stage gives the layered model a dependable front surface instead, from clas
    depth.
 
 Measured (``benchmarks/middlebury.py``, all 31 sets, one published px apart, the GT's view as reference):
-0.50x OpenCV SGBM's bad pixels on average (9.8 % against 19.5 %), at most 0.89x (Midd1); from the classic
-pair alone 14.9 % (18.1 % before the rematch check and the frame-edge step). Per set: tsukuba 4.4 %, venus
-1.4 %, teddy 5.8 %, cones 10.7 %, Art 11.7 %, Midd1 26.0 %. Held-out view PSNR 37.8 dB against the SGBM warp's 34.2.
+0.49x OpenCV SGBM's bad pixels on average (9.5 % against 19.5 %), at most 0.89x (Midd1). Per set: tsukuba
+3.9 %, venus 1.4 %, teddy 5.4 %, cones 10.4 %, Art 11.3 %, Midd1 25.7 %. (With the box window, until session
+20: 9.8 %, 0.50x; from the classic pair alone 14.9 %, 18.1 % before the rematch check and the frame-edge step;
+held-out view PSNR 37.8 dB against the SGBM warp's 34.2.)
 (With ``flat_window`` 31 and ``far_bias`` 0.25, until session 15: 9.6 %, 0.49x, worst 0.91x.)
 """
 
@@ -69,12 +72,22 @@ class DepthConfig:
     matching: matching.MatchingParams = field(default_factory=matching.MatchingParams)
     box: int = 5
     """Side of the square window the cost is averaged over before SGM (1: none; ``aggregation="box"``)."""
-    aggregation: str = "box"
-    """Step 2's window: "box" (the mean over ``box`` x ``box``) or "guided" (:func:`guided_filter`: the colour
-    guided filter of the reference, ``guided_radius`` and ``guided_eps``; the flat-surface bias still reads the
-    box's cost gap). Prototyped on the z-key tuning scenes (56 rows, frame / band dB): 30.06 / 21.97 -> 30.28 /
-    22.07 with radius 2 and eps 1e-3 (radius 4: 30.34 / 21.82; without the box's gap for the flat bias, Monopoly's
-    plain board went from 12.3 to 17.7 % bad pixels)."""
+    aggregation: str = "guided"
+    """Step 2's window: "guided" (:func:`guided_filter`: the colour guided filter of the reference,
+    ``guided_radius`` and ``guided_eps``; the flat-surface bias still reads the box's cost gap) or "box" (the mean
+    over ``box`` x ``box``; until session 20). A box spills a textured surface's costs over a weaker neighbour
+    (foreground fattening); the guided filter stops at colour edges. Measured side by side (session 20; radius
+    and eps chosen on the tuning scenes only: radius 4 gave 30.34 / 21.82 there, and without the box's gap for
+    the bias Monopoly's plain board went from 12.3 to 17.7 % bad pixels):
+
+    * z-key benchmark, 170 rows, frame / band dB: 27.57 / 20.87 -> 27.85 / 21.06; tuning K = 5 30.77 / 22.63 ->
+      30.99 / 22.78, K = 2 29.35 / 21.31 -> 29.57 / 21.37; held-out K = 5 27.57 / 20.97 -> 27.78 / 21.35, K = 2
+      25.12 / 19.69 -> 25.54 / 19.77 (hair_shelves K = 2 +3.5 / +1.2, shelf_grille K = 5 +0.9 / +1.9 but K = 2
+      -0.1 / -1.7, koala_slope K = 2 -0.6 / -0.9, trolls_art K = 5 -0.3 / -0.4);
+    * the hard key from our depth alone, 56 tuning rows: 27.27 / 17.69 -> 28.34 / 18.15 (radius 4);
+    * Middlebury, 31 sets: 9.76 -> 9.53 % bad (tsukuba 4.43 -> 3.94, Laundry 19.13 -> 17.93; worse only
+      Monopoly 12.29 -> 12.52 and Bowling2 8.52 -> 8.54, both far below SGBM's 34.8 and 23.9).
+    """
     guided_radius: int = 2
     """Half-side of the guided filter's window (2: 5 x 5, the box's)."""
     guided_eps: float = 1e-3
@@ -316,8 +329,26 @@ def box_filter(cost: np.ndarray, size: int, *, out: np.ndarray | None = None) ->
     return ndimage.uniform_filter(cost, size=(size, size, 1), mode="nearest", output=out)
 
 
+def _guide_inverse(I: np.ndarray, size: int, eps: float) -> tuple[np.ndarray, np.ndarray]:
+    """The guide's window means (H, W, 3) and the inverse of its regularised window covariance (H, W, 3, 3)."""
+    h, w = I.shape[:2]
+    mI = box_filter(I, size)
+    pairs = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)]
+    mII = box_filter(np.ascontiguousarray(np.stack([I[..., i] * I[..., j] for i, j in pairs], -1)), size)
+    v = {(i, j): mII[..., n].astype(np.float64) - mI[..., i] * mI[..., j] + (eps if i == j else 0.0)
+         for n, (i, j) in enumerate(pairs)}
+    a, b, c, d, e, f = v[0, 0], v[0, 1], v[0, 2], v[1, 1], v[1, 2], v[2, 2]
+    cof = {(0, 0): d * f - e * e, (0, 1): c * e - b * f, (0, 2): b * e - c * d,
+           (1, 1): a * f - c * c, (1, 2): b * c - a * e, (2, 2): a * d - b * b}  # the symmetric adjugate
+    det = a * cof[0, 0] + b * cof[0, 1] + c * cof[0, 2]
+    inv = np.empty((h, w, 3, 3), np.float32)
+    for (i, j), x in cof.items():
+        inv[..., i, j] = inv[..., j, i] = x / det
+    return mI, inv
+
+
 def guided_filter(cost: np.ndarray, guide: np.ndarray, radius: int, eps: float, *,
-                  out: np.ndarray | None = None, chunk: int = 4) -> tuple[np.ndarray, np.ndarray]:
+                  out: np.ndarray | None = None, chunk: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Each plane of ``cost`` (H, W, D) filtered by the colour guided filter of ``guide`` (H, W, 3), in [0, 1].
 
     Cost-volume filtering (Hosni, Rhemann, Bleyer, Rother & Gelautz, PAMI 2013) with He, Sun & Tang's guided
@@ -328,25 +359,15 @@ def guided_filter(cost: np.ndarray, guide: np.ndarray, radius: int, eps: float, 
 
     Returns ``(filtered, gap)``: the filtered volume (into ``out`` when given; it must not be ``cost``) and
     each pixel's mean-minus-least over the planes of the *box*-filtered cost, which :func:`flat_bias` is
-    calibrated on. Planes are filtered ``chunk`` at a time (numba kernels around :func:`box_filter`): the
-    temporaries are ``8 chunk / D`` of a volume.
+    calibrated on. Planes are filtered ``chunk`` at a time (numba kernels around :func:`box_filter`; default
+    ``D // 16``, 1 to 4): the temporaries are ``8 chunk / D`` of a volume (at most half of one) and about 100
+    bytes per pixel.
     """
     h, w, D = cost.shape
     size = 2 * radius + 1
     I = np.ascontiguousarray(guide, np.float32)
-    mI = box_filter(I, size)
-    pairs = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)]
-    prod = np.ascontiguousarray(np.stack([I[..., i] * I[..., j] for i, j in pairs], -1))
-    mII = box_filter(prod, size)
-    v = {(i, j): mII[..., n].astype(np.float64) - mI[..., i] * mI[..., j] + (eps if i == j else 0.0)
-         for n, (i, j) in enumerate(pairs)}
-    a, b, c, d, e, f = v[0, 0], v[0, 1], v[0, 2], v[1, 1], v[1, 2], v[2, 2]
-    cof = {(0, 0): d * f - e * e, (0, 1): c * e - b * f, (0, 2): b * e - c * d,
-           (1, 1): a * f - c * c, (1, 2): b * c - a * e, (2, 2): a * d - b * b}  # the symmetric adjugate
-    det = a * cof[0, 0] + b * cof[0, 1] + c * cof[0, 2]
-    inv = np.empty((h, w, 3, 3), np.float32)
-    for (i, j), x in cof.items():
-        inv[..., i, j] = inv[..., j, i] = x / det
+    mI, inv = _guide_inverse(I, size, eps)
+    chunk = max(1, min(4, D // 16)) if chunk is None else int(chunk)
     from vfxstereo import _depth_kernels
 
     out = np.empty_like(cost) if out is None else out
@@ -740,7 +761,7 @@ def _robust_depth(views, warper, reference, config, progress, keep_volume) -> De
                              config.subset_penalty, out=S if config.box > 1 or guided else windowed)
         gap = None
         if guided:
-            cost, gap = guided_filter(cost, prep.values[reference] / 255.0, config.guided_radius,
+            cost, gap = guided_filter(cost, prep.values[reference] * np.float32(1 / 255), config.guided_radius,
                                       config.guided_eps, out=windowed)
         else:
             cost = box_filter(cost, config.box, out=windowed)  # S is free again: SGM writes it
