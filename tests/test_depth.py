@@ -194,6 +194,18 @@ def test_the_box_filter_is_scipys_uniform_filter(rng, planes):
         np.testing.assert_allclose(out, ref, rtol=0, atol=2e-6)
 
 
+def test_the_box_filter_runs_without_opencv(rng, monkeypatch):
+    """The Blender extension's bundled wheels have no cv2: the numba kernel takes over."""
+    import sys
+
+    from scipy import ndimage
+
+    monkeypatch.setitem(sys.modules, "cv2", None)  # import cv2 now raises ImportError
+    cost = rng.uniform(0, 2, (17, 23, 5)).astype(np.float32)
+    ref = ndimage.uniform_filter(cost.astype(np.float64), size=(5, 5, 1), mode="nearest")
+    np.testing.assert_allclose(depth.box_filter(cost, 5), ref, rtol=0, atol=2e-6)
+
+
 def _guided_reference(cost, guide, radius, eps):
     """He et al.'s colour guided filter plane by plane, a 3x3 solve per pixel (slow, plain)."""
     from scipy import ndimage

@@ -304,15 +304,18 @@ def box_filter(cost: np.ndarray, size: int, *, out: np.ndarray | None = None) ->
 
     An odd ``size`` on an (H, W, D) float32 volume with up to 512 planes goes through OpenCV's ``blur``
     (running sums over all planes at once; 3x the numba kernel below at 960 x 540 x 64), an odd ``size`` on a
-    larger one through a parallel numba kernel (``scipy.ndimage.uniform_filter`` is the reference of both in
-    the tests); anything else through scipy.
+    larger one (or where OpenCV is missing: the Blender extension does not bundle it) through a parallel numba
+    kernel (``scipy.ndimage.uniform_filter`` is the reference of both in the tests); anything else through
+    scipy.
     """
     if size <= 1:
         return cost
-    if (size % 2 == 1 and cost.dtype == np.float32 and cost.ndim == 3 and cost.shape[2] <= 512
-            and cost.flags.c_contiguous):
+    try:
         import cv2
-
+    except ImportError:  # the Blender extension bundles no OpenCV: the numba kernel then
+        cv2 = None
+    if (cv2 is not None and size % 2 == 1 and cost.dtype == np.float32 and cost.ndim == 3
+            and cost.shape[2] <= 512 and cost.flags.c_contiguous):
         out = np.empty_like(cost) if out is None else out
         res = cv2.blur(cost, (size, size), dst=out, borderType=cv2.BORDER_REPLICATE)
         if res is not out:  # OpenCV hands back a new array when it cannot write into ``out``
