@@ -492,15 +492,16 @@ def winner_subpixel(S: np.ndarray, disparities: np.ndarray) -> tuple[np.ndarray,
     return win, out.astype(np.float32)
 
 
-def zbuffer(warper, disparity: np.ndarray, k: int) -> np.ndarray:
+def zbuffer(warper, disparity: np.ndarray, k: int, *, uv: tuple[np.ndarray, np.ndarray] | None = None
+            ) -> np.ndarray:
     """The largest disparity of the reference's depth map that lands on each pixel of view ``k`` (-inf: none).
 
-    Each reference pixel is forward-projected at its own disparity (:meth:`Warper.project`) and splatted onto
-    the four view pixels around where it lands.
+    Each reference pixel is forward-projected at its own disparity (:meth:`Warper.project`, or ``uv`` when the
+    caller has it already) and splatted onto the four view pixels around where it lands.
     """
     from vfxstereo import _depth_kernels
 
-    u, v = warper.project(disparity, k)
+    u, v = warper.project(disparity, k) if uv is None else uv
     out = np.full(warper.shape, -np.inf, np.float32)
     _depth_kernels.zbuffer(u, v, np.asarray(disparity, np.float32), out)
     return out
@@ -899,7 +900,7 @@ def reopen_gaps(views: np.ndarray, warper, reference: int, disparity: np.ndarray
             u, v = warper.project(d, k)
             ui = np.clip(np.nan_to_num(np.rint(u)), 0, w - 1).astype(np.intp)
             vi = np.clip(np.nan_to_num(np.rint(v)), 0, h - 1).astype(np.intp)
-            own[n][zbuffer(warper, d, k)[vi, ui] > d + config.reopen_jump] = np.inf
+            own[n][zbuffer(warper, d, k, uv=(u, v))[vi, ui] > d + config.reopen_jump] = np.inf
         best = np.full(d.shape, np.inf, np.float32)
         to = d.copy()
         e_near = np.full(d.shape, np.inf, np.float32)  # the best of the nearer surfaces around, in any view
