@@ -499,3 +499,33 @@ def test_an_adjacent_back_mattes_a_tip_against_the_surface_right_behind_it():
     assert (planes[got["adjacent"].back[strip]] == 4.0).all()  # the card
     err = {k: float(np.abs(i.alpha[strip] - 0.8).mean()) for k, i in got.items()}
     assert err["adjacent"] < 0.08 and err["farthest"] > 2 * err["adjacent"], err  # measured 0.056, 0.153
+
+
+def test_the_passes_report_each_relabelling_and_where_the_background_is_plain():
+    """``on_pass`` sees every relabelling that moves pixels, before and after, and nothing else: the moves it
+    reports add up to the difference between the depth map in and the one the passes end with; moves are only
+    backwards. ``SoftEdges.plain_back`` marks the matted pixels over the plain wall, none over the random-dot one,
+    whatever ``separation_where`` says."""
+    calls = []
+
+    def on_pass(n, before, after, info):
+        calls.append((n, before.copy(), after.copy(), info.plain_back.copy(), info.alpha.copy()))
+
+    views, warper, _, disparity, index, rim = _grown_rim(False)
+    vol = layers.initial_volume(views, warper, 2, disparity, index, white=1.0)
+    final = softedge.soften_edges_passes(vol, views, warper, 2, disparity, index, white=1.0, on_pass=on_pass)[2]
+    assert calls and [c[0] for c in calls] == list(range(len(calls)))
+    np.testing.assert_array_equal(calls[0][1], disparity)
+    np.testing.assert_array_equal(calls[-1][2], final)
+    for (_, _, after, _, _), (_, before, _, _, _) in zip(calls, calls[1:], strict=False):
+        np.testing.assert_array_equal(after, before)  # each pass starts from the last one's moves
+    assert all((c[2] <= c[1]).all() and (c[2] < c[1]).any() for c in calls)
+    matted = ~np.isnan(calls[0][4])
+    assert calls[0][3][matted].mean() > 0.9  # the plain wall (measured 0.93)
+    assert not calls[0][3][~matted].any()
+    for where in ("plain", "everywhere"):
+        views, warper, _, disparity, index, _ = _grown_rim(True)
+        vol = layers.initial_volume(views, warper, 2, disparity, index, white=1.0)
+        _, info = softedge.soften_edges(vol, views, warper, 2, disparity, index,
+                                        params=softedge.SoftEdgeParams(separation_where=where))
+        assert (~np.isnan(info.alpha)).sum() > 100 and not info.plain_back.any()

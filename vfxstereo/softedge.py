@@ -304,6 +304,7 @@ class SoftEdges:
     explained: np.ndarray | None = None  # (2, H, W) float32 |I_ref - B_ref|^2 and mean_k |I_k - I_ref|^2 at the front
     estimates: dict | None = None  # per matted pixel: "views", "colour", "separation", "residual" (N,)
     outer: np.ndarray | None = None  # (H, W) bool, near-side pixels matted only for relabel (relabel_radius)
+    plain_back: np.ndarray | None = None  # (H, W) bool, the back surface the views see around the pixel is plain
 
 
 def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, disparity: np.ndarray,
@@ -424,7 +425,7 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     outer_px = None if matted is band else ~band[ys, xs]
     known = np.ones(N, bool)  # an outer pixel's background: plain where the views see it around the pixel
     gated = p.min_separation > 0 and p.separation_where == "plain"
-    plain_bg = np.ones(N, bool)  # a pixel's background plain around it (``separation_where``)
+    plain_bg = np.ones(N, bool)  # a pixel's background plain around it (``separation_where``, SoftEdges.plain_back)
     for n, bp in enumerate(back_planes):
         image, seen = background_image(views, warper, int(bp), disparity, dilate=p.dilate, tolerance=tol,
                                        gains=gains, zbuffers=grown)
@@ -435,9 +436,8 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
         if outer_px is not None and (sel & outer_px).any():
             o = np.nonzero(sel & outer_px)[0]
             known[o] = _seen_variance(image, seen, ys[o], xs[o], 4 * p.relabel_radius + 1) < OUTER_PLAIN
-        if gated:  # every back plane in use has pixels (``np.unique(b)``)
-            o = np.nonzero(sel)[0]
-            plain_bg[o] = _seen_variance(image, seen, ys[o], xs[o], 4 * p.radius + 1) < OUTER_PLAIN
+        o = np.nonzero(sel)[0]  # every back plane in use has pixels (``np.unique(b)``)
+        plain_bg[o] = _seen_variance(image, seen, ys[o], xs[o], 4 * p.radius + 1) < OUTER_PLAIN
         del image, seen
         report(progress, "soft-edges", n + 1, len(back_planes) + 1)
     del grown, behind
@@ -465,7 +465,8 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     # a sample the background's colour is foreground the depth map grew over the background (a plain wall
     # next to fur): it explains the pixel perfectly and separates nothing, so the prior would keep it solid
     walk = (p.min_separation * ((B[reference] ** 2).sum(axis=1) + SEPARATION_FLOOR)).astype(np.float32)
-    walk[~plain_bg] = 0.0  # not walked past over a textured background (``separation_where``); all plain if not gated
+    if gated:
+        walk[~plain_bg] = 0.0  # not walked past over a textured background (``separation_where``)
     _edge_kernels.colour_alpha(ys.astype(np.int64), xs.astype(np.int64), f, index, solid, plate,
                                np.ascontiguousarray(B[reference]), int(p.search), tie, walk,
                                a_colour, sep, resid)
@@ -527,6 +528,8 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     info.explained = np.full((2, h, w), np.nan, np.float32)
     info.explained[0, ys, xs] = e_back
     info.explained[1, ys, xs] = e_front
+    info.plain_back = np.zeros((h, w), bool)
+    info.plain_back[ys, xs] = plain_bg
     info.estimates = {"views": a_views, "colour": np.where(have_c, a_colour, np.nan), "separation": sep,
                       "residual": resid, "prior": prior}
     report(progress, "soft-edges", 1, 1)
@@ -537,7 +540,7 @@ def soften_edges_passes(volume: np.ndarray, views: np.ndarray, warper, reference
                         index: np.ndarray, *, params: SoftEdgeParams | None = None, gains: np.ndarray | None = None,
                         zbuffers: list[np.ndarray] | None = None, progress: Progress | None = None,
                         inplace: bool = False, planes: np.ndarray | None = None,
-                        white: float = 1.0) -> tuple[np.ndarray, SoftEdges, np.ndarray]:
+                        white: float = 1.0, on_pass=None) -> tuple[np.ndarray, SoftEdges, np.ndarray]:
     """:func:`soften_edges`, then up to ``params.passes - 1`` more passes that follow the matte.
 
     After each pass, :func:`relabel` sends the near-side pixels whose alpha came out below 0.5 back to their
@@ -546,7 +549,9 @@ def soften_edges_passes(volume: np.ndarray, views: np.ndarray, warper, reference
     band's pixels would move.
 
     ``volume`` is the initial volume of ``disparity``/``index`` (clamped to ``white``); it is written only
-    with ``inplace``. Returns ``(volume, SoftEdges of the last pass, the depth map it used)``.
+    with ``inplace``. ``on_pass(n, disparity, moved_disparity, info)``, if given, is called after each
+    relabelling that moves pixels (``info``: the pass that decided the moves; for diagnostics, e.g.
+    ``benchmarks/softedge_passes.py``). Returns ``(volume, SoftEdges of the last pass, the depth map it used)``.
     """
     from vfxstereo import layers
     from vfxstereo.depth import zbuffer
@@ -557,12 +562,14 @@ def soften_edges_passes(volume: np.ndarray, views: np.ndarray, warper, reference
     within = None
     if p.reach > 0:  # the original depth map's edges, grown by reach
         within = ndimage.binary_dilation(_edges(index, _jump_planes(p, warper.disparities)), iterations=p.reach)
-    for _ in range(p.passes - 1):
+    for n in range(p.passes - 1):
         moved_d, moved_i, moved = relabel(disparity, index, info, warper.disparities,
                                           confidence=p.relabel_confidence, explained=p.relabel_explained,
                                           floor=p.relabel_floor, within=within)
         if not moved or moved < p.settle * info.band.sum():
             break
+        if on_pass is not None:
+            on_pass(n, disparity, moved_d, info)
         disparity, index = moved_d, moved_i
         zbuffers = [zbuffer(warper, disparity, k) for k in range(views.shape[0])]
         layers.initial_volume(views, warper, reference, disparity, index, gains=gains, zbuffers=zbuffers,
