@@ -23,6 +23,7 @@ BENCHMARKS = {
     "middlebury": "middlebury",
     "zkey": "zkey_scenes",
     "zkey_edges": "zkey_edges",
+    "softedge_passes": "softedge_passes",
     "throughput": "throughput",
     "speed": "speed",
 }

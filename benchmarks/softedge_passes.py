@@ -92,6 +92,22 @@ def tables(records: list[dict], title: str) -> str:
     return out
 
 
+def run(*, names=None, Ks=(5, 2), preset: str = "robust", every: bool = False, quick: bool = False) -> str:
+    """The tables (``make bench``: the tuning scenes; ``quick``: two of them at K = 5)."""
+    if quick:
+        names, Ks = names or ["fur_grey_wall", "trolls_art"], (5,)
+    names = names or [n for n in list(scenes.SCENES) + list(bench.CYCLES)
+                      if every or n not in set(scenes.HELD_OUT) | set(bench.CYCLES_HELD_OUT)]
+    if any(n in bench.CYCLES for n in names) and not bench.ensure_cycles_scenes():
+        names = [n for n in names if n not in bench.CYCLES]
+    records = []
+    for name in names:
+        for K in Ks:
+            records += trace(name, K, preset)
+            print(f"  {name} K={K}", file=sys.stderr, flush=True)
+    return tables(records, f"Soft-edge passes: what they move ({preset}, {common.machine_line()})")
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--scenes", nargs="*")
@@ -99,16 +115,7 @@ def main(argv=None) -> int:
     p.add_argument("--K", nargs="*", type=int, default=[5, 2])
     p.add_argument("--preset", default="robust")
     a = p.parse_args(argv)
-    names = a.scenes or [n for n in list(scenes.SCENES) + list(bench.CYCLES)
-                         if a.all or n not in set(scenes.HELD_OUT) | set(bench.CYCLES_HELD_OUT)]
-    if any(n in bench.CYCLES for n in names) and not bench.ensure_cycles_scenes():
-        names = [n for n in names if n not in bench.CYCLES]
-    records = []
-    for name in names:
-        for K in a.K:
-            records += trace(name, K, a.preset)
-            print(f"  {name} K={K}", file=sys.stderr, flush=True)
-    text = tables(records, f"Soft-edge passes: what they move ({a.preset}, {common.machine_line()})")
+    text = run(names=a.scenes, Ks=tuple(a.K), preset=a.preset, every=a.all)
     print(text)
     (common.out_dir() / "softedge_passes.md").write_text(text)
     return 0
