@@ -28,30 +28,23 @@ import numpy as np
 import zkey_scenes as bench
 from scipy import ndimage
 
-from vfxstereo import SolveConfig, depth, layers, softedge
+from vfxstereo import SolveConfig, layers, softedge, solve
 from vfxstereo import zkey_scenes as scenes
-from vfxstereo.geometry import Camera
-from vfxstereo.warp import Warper
 
 
 def trace(name: str, K: int, preset: str) -> list[dict]:
     """One record per pass: pixels moved, of them off a solid surface, by plain / textured background."""
     scene = bench.build_scene(name, K)
-    views = scene.views().astype(np.float32)
-    ref = scene.reference
     config = SolveConfig.preset(preset)
-    warper = Warper(Camera.from_positions(scene.positions, reference=ref), bench.PLANES, views.shape[1:3])
-    res = depth.robust_depth(views, warper, ref, config=config.depth_config)
-    disparity, index = res.disparity, res.index
-    zbuffers = [depth.zbuffer(warper, disparity, k) for k in range(K)]
-    gains = layers.view_gains(views, warper, ref, disparity)
-    volume = layers.initial_volume(views, warper, ref, disparity, index, gains=gains, zbuffers=zbuffers)
     solid = scene.gt_disparity(0.95)
-    far = ndimage.distance_transform_edt(~softedge._edges(index, softedge._jump_planes(config.soft_edge,
-                                                                                      bench.PLANES)))
+    jump = softedge._jump_planes(config.soft_edge, bench.PLANES)
+    far = None  # distance from the depth map's original edges, from the first pass's input
     records = []
 
     def on_pass(n, before, after, info):
+        nonlocal far
+        if far is None:
+            far = ndimage.distance_transform_edt(~softedge._edges(layers.plane_index(before, bench.PLANES), jump))
         moved = after != before
         off_solid = moved & (np.abs(before - solid) < 1.0) & (solid > after + 1.0)
         plain = info.plain_back
@@ -62,8 +55,8 @@ def trace(name: str, K: int, preset: str) -> list[dict]:
                             "off_solid": int(wrong.sum()), "far": int((m & (far > 8)).sum()),
                             "far_off_solid": int((wrong & (far > 8)).sum())})
 
-    softedge.soften_edges_passes(volume, views, warper, ref, disparity, index, params=config.soft_edge, gains=gains,
-                                 zbuffers=zbuffers, inplace=True, on_pass=on_pass)
+    solve(scene.views(), positions=scene.positions, reference=scene.reference, disparities=bench.PLANES,
+          config=config, on_soft_pass=on_pass)
     return records
 
 

@@ -209,7 +209,7 @@ def border_weights(warper: Warper) -> np.ndarray:
 
 def solve(views, *, positions=None, reference: int | None = None, disparities, config: SolveConfig | None = None,
           progress: Progress | None = None, camera: Camera | None = None, return_details: bool = False,
-          keep_initial: bool = False):
+          keep_initial: bool = False, on_soft_pass=None):
     """Recover a stack of premultiplied RGBA layers from K views (Szeliski & Golland 1999, all stages).
 
     Parameters
@@ -236,6 +236,8 @@ def solve(views, *, positions=None, reference: int | None = None, disparities, c
     keep_initial : bool
         Robust depth: keep the volume before the soft edges in ``SolveResult.initial`` (a copy of the stack's
         size; without it ``initial`` is None and the soft edges are written in place).
+    on_soft_pass : callable, optional
+        Robust depth: handed to :func:`vfxstereo.softedge.soften_edges_passes` as ``on_pass`` (diagnostics).
 
     Returns
     -------
@@ -270,7 +272,7 @@ def solve(views, *, positions=None, reference: int | None = None, disparities, c
     if config.depth == "robust":
         return _solve_robust(views, warper, camera, disparities, config, progress=progress, white=white,
                              timed=timed, timings=timings, return_details=return_details,
-                             keep_initial=keep_initial)
+                             keep_initial=keep_initial, on_soft_pass=on_soft_pass)
     if config.depth != "variance":
         raise VfxStereoError(f"unknown depth method {config.depth!r}; choose 'variance' or 'robust'")
     agg_settings = ({"a": config.a, "b": config.b, "c": config.c, "sigma_max": config.sigma_max,
@@ -361,7 +363,7 @@ def solve(views, *, positions=None, reference: int | None = None, disparities, c
 
 
 def _solve_robust(views, warper, camera, disparities, config, *, progress, white, timed, timings, return_details,
-                  keep_initial):
+                  keep_initial, on_soft_pass=None):
     """``solve`` with the robust depth stage (:mod:`vfxstereo.depth`) in place of the paper's sections 4-5.
 
     depth -> initial volume (front surface and hidden layers, :mod:`vfxstereo.layers`) -> refinement (Eqs.
@@ -400,7 +402,8 @@ def _solve_robust(views, warper, camera, disparities, config, *, progress, white
 
         rgba, _, _ = timed("soft-edges", softedge.soften_edges_passes, rgba, views, warper, ref_view,
                            res.disparity, index, params=config.soft_edge, gains=gains, zbuffers=zbuffers,
-                           progress=progress, inplace=in_place, planes=planes, white=white)
+                           progress=progress, inplace=in_place, planes=planes, white=white,
+                           on_pass=on_soft_pass)
         layers.clamp(rgba, white)
     if refining:
         rgba = timed("refine", refine.refine, initial, disparities, views, warper,
