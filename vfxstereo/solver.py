@@ -56,11 +56,13 @@ _ROBUST_BYTES_PER_PIXEL_PER_VIEW = 32
 
 
 def memory_needed(shape: tuple[int, int], n_planes: int, n_views: int, *, depth: str = "robust",
-                  strip_memory: float | None = None, layers: int | None = None) -> int:
+                  strip_memory: float | None = None, layers: int | None = None, soft_edge=None) -> int:
     """Estimated peak bytes of :func:`solve` for views of ``shape`` (H, W) with the ``depth`` method.
 
     Robust depth: ``strip_memory`` (GiB, default :class:`~vfxstereo.depth.DepthConfig`'s) bounds the depth
-    stage's volumes; ``layers`` is the number of planes the stack holds (default all ``n_planes``).
+    stage's volumes; ``layers`` is the number of planes the stack holds (default all ``n_planes``);
+    ``soft_edge`` the soft edges' settings (:class:`~vfxstereo.softedge.SoftEdgeParams`, default its defaults),
+    whose last matting step adds one tile's Laplacian (:func:`vfxstereo.softedge.laplacian_bytes`).
     """
     pixels = int(shape[0]) * int(shape[1])
     cells = pixels * int(n_planes)
@@ -69,8 +71,10 @@ def memory_needed(shape: tuple[int, int], n_planes: int, n_views: int, *, depth:
 
         budget = (DepthConfig().strip_memory if strip_memory is None else strip_memory) * 2**30
         depth_stage = min(cells * DEPTH_BYTES_PER_CELL, budget)
+        from vfxstereo.softedge import laplacian_bytes
+
         stack = pixels * ((n_planes if layers is None else int(layers)) * _ROBUST_STACK_BYTES_PER_CELL
-                          + _ROBUST_LAYER_BYTES_PER_PIXEL)
+                          + _ROBUST_LAYER_BYTES_PER_PIXEL) + laplacian_bytes(shape, soft_edge)
         return int(pixels * n_views * _ROBUST_BYTES_PER_PIXEL_PER_VIEW + max(depth_stage, stack))
     return cells * (_BYTES_PER_CELL + _BYTES_PER_CELL_PER_VIEW * int(n_views))
 
