@@ -200,19 +200,25 @@ def test_the_views_keep_an_opaque_edge_whose_colour_alpha_fails():
     assert moved < 0.05 * near.sum(), (moved, near.sum())  # measured 0 of 384
 
 
+def _fattened_hair():
+    """The hair scene with its true depth grown by 3 px (a fattened foreground), what the passes need, the true
+    alpha and the rim around the hair where the holdout is scored."""
+    from scipy import ndimage
+
+    s = _hair_scene()
+    planes = np.arange(0.0, 8.5, 0.5)
+    warper = Warper(Camera.from_positions(s.positions, s.reference), planes, s.shape)
+    disparity = ndimage.maximum_filter(s.gt_disparity(0.5), size=7).astype(np.float32)
+    true_alpha = s.reference_layers()[1][..., 3]
+    rim = ndimage.binary_dilation(true_alpha > 0.02, iterations=4) & ~(true_alpha > 0.98)
+    return s, s.views(), planes, warper, disparity, layers.plane_index(disparity, planes), true_alpha, rim
+
+
 @pytest.mark.data
 def test_later_soft_edge_passes_pull_a_fattened_edge_back_to_the_matte(shared_data):
     """The true depth grown by 3 px (a fattened foreground): one soft-edge pass keeps much of the grown rim as
     hair; the passes that follow the matte get the hair's holdout closer to the truth."""
-    from scipy import ndimage
-
-    s = _hair_scene()
-    views = s.views()
-    planes = np.arange(0.0, 8.5, 0.5)
-    warper = Warper(Camera.from_positions(s.positions, s.reference), planes, s.shape)
-    disparity = ndimage.maximum_filter(s.gt_disparity(0.5), size=7).astype(np.float32)
-    index = layers.plane_index(disparity, planes)
-    true_alpha = s.reference_layers()[1][..., 3]
+    s, views, planes, warper, disparity, index, true_alpha, rim = _fattened_hair()
     errors = {}
     for passes, explained in ((1, 1.0), (8, 1.0), (8, 0.0)):
         vol = layers.front_volume(index, views[s.reference], len(planes))
@@ -223,7 +229,6 @@ def test_later_soft_edge_passes_pull_a_fattened_edge_back_to_the_matte(shared_da
             params=softedge.SoftEdgeParams(passes=passes, relabel_explained=explained), white=1.0)
         assert (d_last <= disparity + 1e-6).all()  # pixels only ever move back
         hold = 1.0 - np.prod(1.0 - out[planes > 3.5, ..., 3], axis=0)
-        rim = ndimage.binary_dilation(true_alpha > 0.02, iterations=4) & ~(true_alpha > 0.98)
         errors[passes, explained] = float(np.abs(hold - true_alpha)[rim].mean())
     # the views see the hair's texture background through the rim, so the guard lets it move
     assert errors[8, 1.0] < 0.85 * errors[1, 1.0], errors  # measured 0.147 -> 0.098
@@ -599,16 +604,7 @@ def test_the_laplacian_step_brings_a_fattened_hair_edge_closer_to_the_truth_and_
     """The passes on the fattened true depth with and without the last matting step: the hair's holdout is
     closer to the truth with it in the RMS (what PSNR scores; the step is a least-squares fit, and the mean
     absolute error rises a little: 0.082 -> 0.087), and front over back still gives the plate back."""
-    from scipy import ndimage
-
-    s = _hair_scene()
-    views = s.views()
-    planes = np.arange(0.0, 8.5, 0.5)
-    warper = Warper(Camera.from_positions(s.positions, s.reference), planes, s.shape)
-    disparity = ndimage.maximum_filter(s.gt_disparity(0.5), size=7).astype(np.float32)
-    index = layers.plane_index(disparity, planes)
-    true_alpha = s.reference_layers()[1][..., 3]
-    rim = ndimage.binary_dilation(true_alpha > 0.02, iterations=4) & ~(true_alpha > 0.98)
+    s, views, planes, warper, disparity, index, true_alpha, rim = _fattened_hair()
     errors = {}
     for lap in (0.0, 1.0):
         vol = layers.front_volume(index, views[s.reference], len(planes))
