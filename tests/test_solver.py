@@ -415,3 +415,27 @@ def test_a_stack_without_its_empty_planes_holds_the_same_layers():
     np.testing.assert_array_equal(lean.disparities, d[used])
     np.testing.assert_array_equal(lean.rgba, full.rgba[used])
     assert lean.metadata["hidden_cells"] == full.metadata["hidden_cells"] > 0
+
+
+def test_a_given_disparity_map_gives_the_same_stack_as_the_depth_stage_that_made_it():
+    """solve(disparity=SolveResult.disparity) skips the depth stage and builds the same layers; a map of the
+    wrong size or with NaN, or one given to the paper's depth, is refused."""
+    from vfxstereo import samples
+
+    s = samples.layered_scene(shape=(48, 64), num_planes=8)
+    planes = np.arange(8.0)
+    first = solve(s.views, positions=s.positions, reference=s.reference, disparities=planes, return_details=True)
+    again = solve(s.views, positions=s.positions, reference=s.reference, disparities=planes,
+                  disparity=first.disparity, return_details=True)
+    assert "depth" not in again.timings
+    np.testing.assert_array_equal(again.stack.rgba, first.stack.rgba)
+    other = np.full((48, 64), 2.0, np.float32)  # a flat map: one opaque layer on plane 2, the plate itself
+    flat = solve(s.views, positions=s.positions, reference=s.reference, disparities=planes, disparity=other)
+    assert (flat.rgba[2, ..., 3] == 1).all() and not flat.rgba[np.arange(8) != 2, ..., 3].any()
+    np.testing.assert_allclose(flat.rgba[2, ..., :3], s.views[s.reference], atol=1e-6)
+    for bad in (np.zeros((47, 64), np.float32), np.where(other > 0, np.nan, other)):
+        with pytest.raises(VfxStereoError, match="disparity map"):
+            solve(s.views, positions=s.positions, reference=s.reference, disparities=planes, disparity=bad)
+    with pytest.raises(VfxStereoError, match="robust depth"):
+        solve(s.views, positions=s.positions, reference=s.reference, disparities=planes, disparity=other,
+              config=SolveConfig.preset("paper"))

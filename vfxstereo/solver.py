@@ -213,7 +213,7 @@ def border_weights(warper: Warper) -> np.ndarray:
 
 def solve(views, *, positions=None, reference: int | None = None, disparities, config: SolveConfig | None = None,
           progress: Progress | None = None, camera: Camera | None = None, return_details: bool = False,
-          keep_initial: bool = False, on_soft_pass=None):
+          keep_initial: bool = False, on_soft_pass=None, disparity=None):
     """Recover a stack of premultiplied RGBA layers from K views (Szeliski & Golland 1999, all stages).
 
     Parameters
@@ -242,6 +242,10 @@ def solve(views, *, positions=None, reference: int | None = None, disparities, c
         size; without it ``initial`` is None and the soft edges are written in place).
     on_soft_pass : callable, optional
         Robust depth: handed to :func:`vfxstereo.softedge.soften_edges_passes` as ``on_pass`` (diagnostics).
+    disparity : ndarray of shape (H, W), optional
+        Robust depth: the reference camera's disparity (px per view step, finite everywhere) to build the layers
+        from instead of the depth stage's -- a depth map from another tool, or one solved before
+        (``SolveResult.disparity``: the same settings then give the same stack).
 
     Returns
     -------
@@ -275,10 +279,14 @@ def solve(views, *, positions=None, reference: int | None = None, disparities, c
 
     if config.depth == "robust":
         return _solve_robust(views, warper, camera, disparities, config, progress=progress, white=white,
+                             disparity=disparity,
                              timed=timed, timings=timings, return_details=return_details,
                              keep_initial=keep_initial, on_soft_pass=on_soft_pass)
     if config.depth != "variance":
         raise VfxStereoError(f"unknown depth method {config.depth!r}; choose 'variance' or 'robust'")
+    if disparity is not None:
+        raise VfxStereoError("a given disparity map needs the robust depth stage (preset 'robust'); the paper's "
+                             "depth decides the layers itself")
     agg_settings = ({"a": config.a, "b": config.b, "c": config.c, "sigma_max": config.sigma_max,
                      "iterations": config.aggregation_iterations, "limit_centre": config.limit_centre,
                      "progress": progress}
@@ -367,7 +375,7 @@ def solve(views, *, positions=None, reference: int | None = None, disparities, c
 
 
 def _solve_robust(views, warper, camera, disparities, config, *, progress, white, timed, timings, return_details,
-                  keep_initial, on_soft_pass=None):
+                  keep_initial, on_soft_pass=None, disparity=None):
     """``solve`` with the robust depth stage (:mod:`vfxstereo.depth`) in place of the paper's sections 4-5.
 
     depth -> initial volume (front surface and hidden layers, :mod:`vfxstereo.layers`) -> refinement (Eqs.
@@ -380,8 +388,17 @@ def _solve_robust(views, warper, camera, disparities, config, *, progress, white
         raise VfxStereoError("the robust depth stage needs the virtual camera at one of the views "
                              "(a reference view); use the paper's depth (preset 'paper') for a virtual camera")
     plate = views[ref_view]
-    res = timed("depth", depth.robust_depth, views, warper, ref_view, config=config.depth_config,
-                progress=progress)
+    if disparity is None:
+        res = timed("depth", depth.robust_depth, views, warper, ref_view, config=config.depth_config,
+                    progress=progress)
+    else:
+        given = np.asarray(disparity, np.float32)
+        if given.shape != plate.shape[:2] or not np.isfinite(given).all():
+            raise VfxStereoError(f"the disparity map must be {plate.shape[0]}x{plate.shape[1]} and finite "
+                                 f"everywhere, got {'x'.join(map(str, given.shape))}"
+                                 f"{'' if np.isfinite(given).all() else ' with NaN or inf'}")
+        res = depth.DepthResult(disparity=given, index=layers.plane_index(given, disparities),
+                                reliable=np.ones(given.shape, bool))
     for name, seconds in res.timings.items():
         timings[f"depth.{name}"] = seconds
     index = res.index
