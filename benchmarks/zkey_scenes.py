@@ -23,12 +23,18 @@ beats the SGBM key on every row (frame and band) and the true-depth key on the b
 (row PSNRs capped at :data:`CAP` dB in the means).
 
 Run ``python benchmarks/zkey_scenes.py [--held-out | --all] [--scenes a b] [--K 5 2] [--preset robust]``.
+Tuning: ``--config '{"soft_edge": {"laplacian": 0.3}}' --depth-cache DIR --jobs 2 --json new.json --compare
+old.json`` (settings on top of the preset; the depth stage solved once per scene, rig and depth settings and
+reused; fresh processes; ours' change per scene against an earlier run's rows).
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import hashlib
 import json
+import multiprocessing
 import os
 import subprocess
 import sys
@@ -116,15 +122,47 @@ def build_scene(name: str, K: int):
     return CyclesScene(name, K) if name in CYCLES else scenes.build(name, K=K)
 
 
-def run_scene(name: str, K: int, preset: str, *, figures: bool = True) -> list[dict]:
-    """Solve one scene with one rig size and score every element; one row per element."""
+def configured(preset: str, overrides: dict | None = None) -> SolveConfig:
+    """The preset with ``overrides`` applied: ``{"soft_edge": {"laplacian": 0.3}, "depth_config": {...}}``
+    (a dict for a group of settings changes only the names it gives) or top-level settings."""
+    config = SolveConfig.preset(preset)
+    for key, value in (overrides or {}).items():
+        current = getattr(config, key, None)
+        if dataclasses.is_dataclass(current) and isinstance(value, dict):
+            value = dataclasses.replace(current, **value)
+        config = config.replace(**{key: value})
+    return config
+
+
+def _depth_path(cache: Path, name: str, K: int, config: SolveConfig) -> Path:
+    """Where the depth stage's disparity for this scene, rig and depth configuration is kept in ``cache``."""
+    key = hashlib.sha1(repr((name, K, PLANES.tolist(), config.depth, config.depth_config)).encode()).hexdigest()
+    return cache / f"{name}_K{K}_{key[:16]}.npy"
+
+
+def run_scene(name: str, K: int, preset: str, *, figures: bool = True, overrides: dict | None = None,
+              depth_cache: Path | None = None) -> list[dict]:
+    """Solve one scene with one rig size and score every element; one row per element.
+
+    ``overrides``: settings on top of the preset (:func:`configured`); ``depth_cache``: a folder where the depth
+    stage's disparity maps are kept and reused (``solve(disparity=...)``).
+    """
     scene = build_scene(name, K)
     views = scene.views()
     plate = views[scene.reference]
-    config = SolveConfig.preset(preset)
+    config = configured(preset, overrides)
+
+    def solve_it(disparity=None):
+        return solve(views, positions=scene.positions, reference=scene.reference, disparities=PLANES,
+                     config=config, return_details=True, keep_initial=True, disparity=disparity)
+
+    cached = _depth_path(depth_cache, name, K, config) if depth_cache and config.depth == "robust" else None
     with common.Stopwatch() as sw:
-        res = solve(views, positions=scene.positions, reference=scene.reference, disparities=PLANES,
-                    config=config, return_details=True, keep_initial=True)
+        res = solve_it(np.load(cached) if cached is not None and cached.is_file() else None)
+    if cached is not None and not cached.is_file():  # the soft edges can then be tuned on stored depth maps
+        cached.parent.mkdir(parents=True, exist_ok=True)
+        np.save(cached.with_suffix(".tmp.npy"), res.disparity)
+        cached.with_suffix(".tmp.npy").replace(cached)
     stack = res.stack
     initial = LayerStack(res.initial, stack.disparities, stack.camera, white=stack.white, plate=plate)
     right = scene.reference + 1
@@ -211,9 +249,18 @@ def tables(rows: list[dict], title: str) -> str:
     return out + "\n" + "\n".join(summary) + "\n"
 
 
+def _scene_job(args) -> list[dict]:
+    name, K, preset, figures, overrides, depth_cache = args
+    return run_scene(name, K, preset, figures=figures, overrides=overrides, depth_cache=depth_cache)
+
+
 def run(*, names=None, held_out: bool = False, every: bool = True, Ks=(5, 2), preset: str = "robust",
-        figures: bool = True, quick: bool = False) -> str:
-    """Score the scenes (``make bench``: all of them; the script's own default: the tuning scenes)."""
+        figures: bool = True, quick: bool = False, overrides: dict | None = None, depth_cache: Path | None = None,
+        jobs: int = 1, rows_out: list | None = None) -> str:
+    """Score the scenes (``make bench``: all of them; the script's own default: the tuning scenes).
+
+    ``jobs`` > 1 solves (scene, K) pairs in that many processes, each pair in a fresh one; ``rows_out``
+    receives the rows."""
     if quick:
         names, Ks = names or ["trolls_art", "fur_grey_wall"], (5,)
     if names is None:
@@ -222,15 +269,50 @@ def run(*, names=None, held_out: bool = False, every: bool = True, Ks=(5, 2), pr
     if any(n in CYCLES for n in names) and not ensure_cycles_scenes():
         print("  no Cycles scenes (no .venv-blender to render them): scored without them", file=sys.stderr)
         names = [n for n in names if n not in CYCLES]
+    tasks = [(name, K, preset, figures, overrides, depth_cache) for name in names for K in Ks]
+    if jobs > 1:
+        pool = multiprocessing.get_context("spawn").Pool(jobs, maxtasksperchild=1)
+        results = pool.imap(_scene_job, tasks)
+    else:
+        pool, results = None, map(_scene_job, tasks)
     rows = []
-    for name in names:
-        for K in Ks:
-            rows += run_scene(name, K, preset, figures=figures)
-            r = rows[-1]
-            print(f"  {name} K={K}: ours {r['ours'][1]:.2f} band, SGBM {r['SGBM key'][1]:.2f}, "
-                  f"true {r['true-depth key'][1]:.2f} ({r['seconds']:.1f} s)", file=sys.stderr, flush=True)
+    try:
+        for (name, K, *_), got in zip(tasks, results, strict=True):
+            rows += got
+            if got:
+                r = got[-1]
+                print(f"  {name} K={K}: ours {r['ours'][1]:.2f} band, SGBM {r['SGBM key'][1]:.2f}, "
+                      f"true {r['true-depth key'][1]:.2f} ({r['seconds']:.1f} s)", file=sys.stderr, flush=True)
+    finally:
+        if pool is not None:
+            pool.terminate()
+    if rows_out is not None:
+        rows_out.extend(rows)
     which = "all scenes" if every else ("held-out scenes" if held_out else "tuning scenes")
-    return tables(rows, f"Z-key on production-like plates ({which}, preset {preset}, {common.machine_line()})")
+    settings = f", settings {json.dumps(overrides)}" if overrides else ""
+    return tables(rows, f"Z-key on production-like plates ({which}, preset {preset}{settings}, "
+                        f"{common.machine_line()})")
+
+
+def compare(rows: list[dict], before: list[dict]) -> str:
+    """Per (scene, K): the mean change of ours (frame / band dB, capped) from ``before``'s rows for the same
+    elements, and over all of them."""
+    old = {(r["scene"], r["K"], r["element"]): r for r in before}
+    per: dict = {}
+    for r in rows:
+        b = old.get((r["scene"], r["K"], r["element"]))
+        if b is not None:
+            per.setdefault((r["scene"], r["K"]), []).append(
+                [min(r["ours"][i], CAP) - min(b["ours"][i], CAP) for i in (0, 1)])
+    if not per:
+        return "no rows in common with the earlier run\n"
+    def change(d):
+        return f"{np.mean([x[0] for x in d]):+.2f} / {np.mean([x[1] for x in d]):+.2f}"
+
+    every = [x for d in per.values() for x in d]
+    body = [[s, K, len(d), change(d)] for (s, K), d in per.items()] + [["all", "", len(every), change(every)]]
+    return common.section("Ours against the earlier run", common.markdown_table(
+        ["scene", "K", "rows", "change, frame / band dB"], body))
 
 
 def main(argv=None) -> int:
@@ -240,11 +322,25 @@ def main(argv=None) -> int:
     p.add_argument("--all", action="store_true", help="score every scene")
     p.add_argument("--K", nargs="*", type=int, default=[5, 2])
     p.add_argument("--preset", default="robust")
+    p.add_argument("--config", type=json.loads, default=None, metavar="JSON",
+                   help='settings on top of the preset, e.g. \'{"soft_edge": {"laplacian": 0.3}}\'')
+    p.add_argument("--depth-cache", type=Path, default=None, metavar="DIR",
+                   help="keep the depth stage's disparity maps here and reuse them (same depth settings)")
+    p.add_argument("--jobs", type=int, default=1, help="(scene, K) pairs solved in parallel processes")
+    p.add_argument("--json", type=Path, default=None, help="write the rows here")
+    p.add_argument("--compare", type=Path, default=None, metavar="JSON",
+                   help="rows of an earlier run (--json): print ours' change per scene")
     p.add_argument("--no-figures", action="store_true")
     a = p.parse_args(argv)
+    rows: list[dict] = []
     text = run(names=a.scenes, held_out=a.held_out, every=a.all and not a.held_out, Ks=tuple(a.K), preset=a.preset,
-               figures=not a.no_figures)
+               figures=not a.no_figures, overrides=a.config, depth_cache=a.depth_cache, jobs=a.jobs,
+               rows_out=rows)
+    if a.compare is not None:
+        text += "\n" + compare(rows, json.loads(a.compare.read_text()))
     print(text)
+    if a.json is not None:
+        a.json.write_text(json.dumps(rows))
     suffix = "_heldout" if a.held_out else ("_all" if a.all else "")
     (common.out_dir() / f"zkey_scenes{suffix}.md").write_text(text)
     return 0

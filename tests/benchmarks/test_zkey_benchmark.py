@@ -6,6 +6,8 @@ from pathlib import Path
 
 import pytest
 
+from vfxstereo.errors import VfxStereoError
+
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
 zkey = pytest.importorskip("zkey_scenes")
 
@@ -28,3 +30,35 @@ def test_the_summary_counts_wins_ties_and_losses_against_the_sgbm_key():
                   r"loses (\d+)\)", text)
     assert m, text
     assert tuple(map(int, m.groups())) == (3, 1, 0, 1, 1, 3, 1, 1)
+
+
+def test_settings_on_top_of_a_preset_change_only_the_names_given():
+    config = zkey.configured("robust", {"soft_edge": {"laplacian": 0.3}, "soft_edges": False})
+    base = zkey.SolveConfig.preset("robust")
+    assert config.soft_edge.laplacian == 0.3 and not config.soft_edges
+    assert config.soft_edge.relabel_radius == base.soft_edge.relabel_radius
+    assert config.depth_config == base.depth_config
+    with pytest.raises(VfxStereoError, match="unknown solver setting"):
+        zkey.configured("robust", {"no_such_setting": 1})
+
+
+def test_the_comparison_with_an_earlier_run_is_ours_change_per_scene():
+    before = [_row((30.0, 20.0), (0, 0)), _row((40.0, 30.0), (0, 0), K=2)]
+    after = [_row((31.0, 19.0), (0, 0)), _row((40.0, 150.0), (0, 0), K=2)]  # the band above CAP counts as CAP
+    text = zkey.compare(after, before)
+    assert "| s     |   5 |    1 | +1.00 / -1.00" in text, text
+    assert f"+0.00 / {zkey.CAP - 30.0:+.2f}" in text, text
+    assert "| all" in text and f"+0.50 / {(zkey.CAP - 30.0 - 1.0) / 2:+.2f}" in text, text
+
+
+@pytest.mark.data
+def test_a_cached_depth_map_gives_the_rows_of_a_full_solve(shared_data, tmp_path):
+    """run_scene with a depth cache: the first run solves in full and stores the depth stage's map, the second
+    builds the layers from it (solve(disparity=...)) and gives the same rows."""
+    first = zkey.run_scene("trolls_art", 2, "robust", figures=False, depth_cache=tmp_path)
+    assert len(list(tmp_path.glob("trolls_art_K2_*.npy"))) == 1
+    again = zkey.run_scene("trolls_art", 2, "robust", figures=False, depth_cache=tmp_path)
+    assert len(first) == len(again) > 0
+    for a, b in zip(first, again, strict=True):
+        for m in zkey.METHODS:
+            assert a[m] == b[m], m
