@@ -637,8 +637,10 @@ LAPLACIAN_MARGIN = 16
 
 
 def laplacian_bytes(shape: tuple[int, int], p: SoftEdgeParams | None = None) -> int:
-    """Bytes :func:`laplacian_matte` holds beyond its inputs at most, for a plate of ``shape``: one tile's
-    Laplacian entries (the solver's memory check counts them with the layers)."""
+    """Bytes :func:`laplacian_matte` holds beyond its inputs at most, for a plate of ``shape``.
+
+    One tile's Laplacian entries; the solver's memory check counts them with the layers.
+    """
     p = p or SoftEdgeParams()
     if p.laplacian <= 0:
         return 0
