@@ -533,8 +533,7 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     info.plain_back = np.zeros((h, w), bool)
     info.plain_back[ys, xs] = plain_bg
     info.estimates = {"views": a_views, "colour": np.where(have_c, a_colour, np.nan), "separation": sep,
-                      "residual": resid, "prior": prior, "background": B[reference],
-                      "weight": (wv_ + wc_ + p.w_prior).astype(np.float32)}
+                      "residual": resid, "prior": prior, "weight": (wv_ + wc_ + p.w_prior).astype(np.float32)}
     report(progress, "soft-edges", 1, 1)
     return out, info
 
@@ -615,11 +614,8 @@ def soften_edges_passes(volume: np.ndarray, views: np.ndarray, warper, reference
         from vfxstereo.layers import slots
 
         plate = np.ascontiguousarray(views[reference], np.float32)
-        matted = ~np.isnan(info.alpha)
-        info.alpha[matted] = laplacian_matte(info, plate, index, p)
-        wr = info.band[matted]  # the band's cells: the outer pixels' cells stay
-        ys, xs = np.nonzero(matted)
-        ys, xs = ys[wr], xs[wr]
+        info.alpha[~np.isnan(info.alpha)] = laplacian_matte(info, plate, index, p)
+        ys, xs = np.nonzero(info.band)  # the band's cells: the outer pixels' cells stay
         slot = slots(planes, len(warper.disparities))
         back = out[slot[info.back[ys, xs]], ys, xs, :3]  # the last pass's background, as written
         _write_band(out, ys, xs, info.front[ys, xs], info.back[ys, xs], info.alpha[ys, xs], plate[ys, xs], back,

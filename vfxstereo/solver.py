@@ -23,6 +23,7 @@ Results on the synthetic scenes of :mod:`vfxstereo.samples` (64 x 64, K = 5, see
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 
@@ -119,16 +120,22 @@ def memory_settings(config: SolveConfig) -> dict:
     if config.depth != "robust":
         return {"depth": config.depth}
     return {"depth": "robust", "strip_memory": config.depth_config.strip_memory,
-            "layers": None if config.keep_empty_planes else 1}
+            "layers": None if config.keep_empty_planes else 1, "soft_edge": _soft_edge_memory(config)}
+
+
+def _soft_edge_memory(config: SolveConfig):
+    """The soft-edge settings :func:`memory_needed` counts for ``config`` (no matting step without soft edges)."""
+    return config.soft_edge if config.soft_edges else dataclasses.replace(config.soft_edge, laplacian=0.0)
 
 
 def check_memory(shape: tuple[int, int], n_planes: int, n_views: int, *, depth: str = "robust",
-                 strip_memory: float | None = None, layers: int | None = None) -> None:
+                 strip_memory: float | None = None, layers: int | None = None, soft_edge=None) -> None:
     """Raise VfxStereoError, saying how much is needed, when a solve cannot fit in memory.
 
     The arguments are :func:`memory_needed`'s.
     """
-    need = memory_needed(shape, n_planes, n_views, depth=depth, strip_memory=strip_memory, layers=layers)
+    need = memory_needed(shape, n_planes, n_views, depth=depth, strip_memory=strip_memory, layers=layers,
+                         soft_edge=soft_edge)
     have = available_memory()
     if need > 0.8 * have:
         raise VfxStereoError(
@@ -393,10 +400,11 @@ def _solve_robust(views, warper, camera, disparities, config, *, progress, white
                     progress=progress)
     else:
         given = np.asarray(disparity, np.float32)
-        if given.shape != plate.shape[:2] or not np.isfinite(given).all():
+        finite = bool(np.isfinite(given).all())
+        if given.shape != plate.shape[:2] or not finite:
             raise VfxStereoError(f"the disparity map must be {plate.shape[0]}x{plate.shape[1]} and finite "
                                  f"everywhere, got {'x'.join(map(str, given.shape))}"
-                                 f"{'' if np.isfinite(given).all() else ' with NaN or inf'}")
+                                 f"{'' if finite else ' with NaN or inf'}")
         res = depth.DepthResult(disparity=given, index=layers.plane_index(given, disparities),
                                 reliable=np.ones(given.shape, bool))
     for name, seconds in res.timings.items():
@@ -407,7 +415,7 @@ def _solve_robust(views, warper, camera, disparities, config, *, progress, white
         planes = np.unique(index[index >= 0])  # hidden cells and soft edges lie on the depth map's planes too
     n_layers = len(disparities) if planes is None else len(planes)
     check_memory(views.shape[1:3], len(disparities), views.shape[0], depth="robust",
-                 strip_memory=config.depth_config.strip_memory, layers=n_layers)
+                 strip_memory=config.depth_config.strip_memory, layers=n_layers, soft_edge=_soft_edge_memory(config))
     zbuffers = [depth.zbuffer(warper, res.disparity, k) for k in range(views.shape[0])]  # hidden layers, edges
     gains = timed("layers", layers.view_gains, views, warper, ref_view, res.disparity)
     initial = timed("layers", layers.initial_volume, views, warper, ref_view, res.disparity, index, gains=gains,
