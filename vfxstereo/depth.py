@@ -11,7 +11,8 @@ This stage gives the layered model a dependable front surface instead, from clas
 2. **Window** (``aggregation``): the cost filtered over a small window by the reference's colour guided filter
    (:func:`guided_filter`; a plain box with ``aggregation="box"``), which steadies flat surfaces without
    carrying a textured surface's costs across colour edges; then the flat-surface bias (``far_bias``,
-   :func:`flat_bias`).
+   :func:`flat_bias`), given to pixels whose cost curve is flat and to pixels that two far-apart depths
+   explain alike (``rival_jump``: a plain wall seen through a grille).
 3. **Semi-global matching** (:mod:`vfxstereo.sgm`): 8 paths, P2 lowered at image edges.
 4. **Winner and sub-pixel**: the plane of least aggregated cost, refined by a parabola (Section 8.1).
 5. **Visibility** (the paper's Section 5 made from a depth map): the disparity map is forward-projected
@@ -161,6 +162,22 @@ class DepthConfig:
     20.3); 5 with 0.35: 9.31 / 13.32. All 31 Middlebury sets with 9 and 0.35: 9.76 % (9.64 before), no set
     above SGBM's (Baby3 8.51 against 10.19, Midd1 26.0 against 29.1). Z-key tuning scenes (full solve, frame /
     band dB): 27.19 / 19.48 -> 27.84 / 19.70, fur_grey_wall +2.2 / +1.4 at K = 2."""
+    rival_jump: float = 3.0
+    """The flat-surface bias also reaches pixels where a depth at least this far from the winner (px per view
+    step) matches about as well (:func:`rival_gap`; 0: the cost gap alone decides). A plain wall seen through a
+    grille, a fence or wicker matches at its own depth and at the grille's, but its cost curve is not flat: at
+    the planes between, the bars pass over it in the other views. Semi-global matching then carries the grille's
+    depth into the holes, and the element is hidden behind a wall that is not there. Cells no other view sees
+    are no rival (at the frame edge of a stereo pair the far planes leave the other view and cost 0: a weakly
+    textured dress there went back without this). Measured (session 23) on the z-key tuning scenes, 56 rows,
+    frame / band dB against no rival: ``rival_scale`` 0.5 +0.44 / +0.34; **0.25 +0.58 / +0.53** (fur_grey_wall
+    K = 2 +3.0 / +2.3, wicker_wall K = 2 +1.3 / +0.5, tree_cloth +0.7 / +0.7 at both rigs, trolls_art K = 2
+    +0.7 / +0.7; doll_plant K = 2 -3.4 / +0.2: a weakly textured dress whose curve is noise at every plane
+    goes back, and K = 5 -0.4 / -0.5); 0.25 before the unseen cells were left out: -0.12 / +0.55
+    (fur_grey_wall K = 2 frame -4.2). Held-out scenes and Middlebury: the README's tables."""
+    rival_scale: float = 0.25
+    """The rival's cost gap counts this many times against ``flat_gap`` (the bias weight is
+    ``exp(-min(gap, rival_scale * rival) / flat_gap)``, averaged over ``flat_window``)."""
     flat_texture: float | None = None
     """Local grey-level deviation (8-bit units, 9 x 9 window) below which a pixel counts as plain: the bias weight
     is also multiplied by ``exp(-deviation / flat_texture)``; None: the cost gap alone decides."""
@@ -270,12 +287,12 @@ class DepthConfig:
                 or not 0 < self.reopen_ratio <= 1 or self.reopen_floor < 0 or self.reopen_relative < 0
                 or self.reopen_jitter < 0 or self.reopen_jump < 0 or self.reopen_views < 1
                 or self.reopen_settle < 0 or self.aggregation not in ("box", "guided")
-                or self.guided_radius < 1 or self.guided_eps <= 0):
+                or self.guided_radius < 1 or self.guided_eps <= 0 or self.rival_jump < 0 or self.rival_scale <= 0):
             raise VfxStereoError("depth settings: box >= 1, paths 4 or 8, median >= 0, visibility_passes >= 0, "
                                  "flat_window >= 1, reopen_passes >= 0, reopen_radii >= 1, 0 < reopen_ratio <= 1, "
                                  "reopen_floor, reopen_relative, reopen_jitter, reopen_jump, reopen_settle >= 0, "
                                  "reopen_views >= 1, aggregation 'box' or 'guided', guided_radius >= 1, "
-                                 "guided_eps > 0")
+                                 "guided_eps > 0, rival_jump >= 0, rival_scale > 0")
         if not (0 <= self.P1 <= self.P2):
             raise VfxStereoError(f"SGM needs 0 <= P1 <= P2, got P1={self.P1}, P2={self.P2}")
         if not (self.strip_memory > 0 and self.strip_margin >= 0):
@@ -439,7 +456,8 @@ def local_deviation(gray: np.ndarray, size: int = 9) -> np.ndarray:
 
 def flat_bias(cost: np.ndarray, disparities: np.ndarray, strength: float, gap_scale: float,
               texture: np.ndarray | None = None, texture_scale: float | None = None, *, window: int = 9,
-              gap: np.ndarray | None = None) -> None:
+              gap: np.ndarray | None = None, rival: int = 0, rival_scale: float = 1.0,
+              seen: list[np.ndarray] | None = None) -> None:
     """Add a cost growing towards the near planes where the cost curve is flat (in place).
 
     The cost added is ``strength * exp(-gap / gap_scale) * (d - d_min) / (d_max - d_min)`` (times
@@ -454,12 +472,18 @@ def flat_bias(cost: np.ndarray, disparities: np.ndarray, strength: float, gap_sc
 
     ``gap`` (H, W): the gap computed elsewhere (:func:`guided_filter` gives the box-filtered cost's, so that
     the bias means the same whichever aggregation ran).
+
+    ``rival`` (planes, 0: none): the gap is also at most ``rival_scale`` times :func:`rival_gap` of ``cost``
+    (``seen``: the views' counts per cell, :func:`rival_gap`). A pixel two far-apart depths explain alike is as
+    undecided as a flat one (``DepthConfig.rival_jump``).
     """
     if strength <= 0 or cost.shape[2] < 2:
         return
     from scipy import ndimage
 
     gap = cost.mean(axis=2) - cost.min(axis=2) if gap is None else gap
+    if rival > 0:
+        gap = np.minimum(gap, rival_scale * rival_gap(cost, rival, seen))
     gap = ndimage.uniform_filter(gap, window, mode="reflect")  # flat over a region (``DepthConfig.flat_window``)
     weight = strength * np.exp(-gap / gap_scale)
     if texture is not None and texture_scale:
@@ -469,6 +493,26 @@ def flat_bias(cost: np.ndarray, disparities: np.ndarray, strength: float, gap_sc
     ramp = ((d - d[0]) / (d[-1] - d[0])).astype(np.float32)
     for y in range(0, cost.shape[0], 64):  # in bands of rows: no volume-sized temporary
         cost[y:y + 64] += weight[y:y + 64, :, None] * ramp[None, None, :]
+
+
+def rival_gap(cost: np.ndarray, planes: int, seen: list[np.ndarray] | None = None) -> np.ndarray:
+    """(H, W) each pixel's least cost at least ``planes`` planes away from its winner, minus the winner's.
+
+    Near zero where two well separated depths explain the pixel equally (a plain wall seen through a grille
+    matches at the wall's depth and at the grille's), large where one depth stands out.
+    """
+    h, w, D = cost.shape
+    out = np.empty((h, w), np.float32)
+    idx = np.arange(D)
+    for y in range(0, h, 64):
+        c = cost[y:y + 64]
+        win = c.argmin(axis=2)
+        best = np.take_along_axis(c, win[..., None], axis=2)[..., 0]
+        far = np.abs(idx[None, None, :] - win[..., None]) >= planes
+        if seen is not None:  # a cell no other view sees says nothing: it is no rival
+            far &= sum(n[y:y + 64] for n in seen) > 0
+        out[y:y + 64] = np.where(far, c, np.inf).min(axis=2) - best
+    return np.where(np.isfinite(out), out, np.float32(1e3))
 
 
 def winner_subpixel(S: np.ndarray, disparities: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -771,7 +815,9 @@ def _robust_depth(views, warper, reference, config, progress, keep_volume) -> De
             cost = box_filter(cost, config.box, out=windowed)  # S is free again: SGM writes it
         flat_bias(cost, d, config.far_bias, config.flat_gap,
                   texture=local_deviation(prep.grey[reference]) if config.flat_texture else None,
-                  texture_scale=config.flat_texture, window=config.flat_window, gap=gap)
+                  texture_scale=config.flat_texture, window=config.flat_window, gap=gap,
+                  rival=int(round(config.rival_jump / step)) if config.rival_jump > 0 else 0,
+                  rival_scale=config.rival_scale, seen=list(count.values()))
         timed("match", t0)
         t0 = time.perf_counter()
         from vfxstereo.sgm import sgm
