@@ -521,6 +521,11 @@ def test_the_rival_gap_matches_a_plain_reference(rng):
     assert depth.rival_gap(cost, 3, seen)[3, 4] == 0.0
     assert depth.rival_gap(cost, 3, seen)[5, 5] == 1e3
     assert np.allclose(depth.rival_gap(cost, 3), depth.rival_gap(cost, 3, [np.ones(cost.shape, np.uint8)]))
+    from vfxstereo.errors import VfxStereoError
+
+    for bad in ({"rival_jump": -1.0}, {"rival_scale": 0.0}):
+        with pytest.raises(VfxStereoError, match="rival"):
+            depth.DepthConfig(**bad)
 
 
 def _grille_over_plain_wall(K=5, spacing=45.0):
@@ -560,3 +565,20 @@ def test_a_plain_wall_seen_through_a_grille_goes_back_with_the_rival_gate():
         near[name + " bars kept"] = float(np.mean(np.abs(d[bars] - gt[bars]) <= 1))
     assert near["default"] < 0.5 * near["off"], near
     assert near["default bars kept"] > 0.8, near
+
+
+def test_the_rival_gate_biases_two_equal_depths_but_not_one_clear_one():
+    """Two clean minima far apart (a wall through a grille): the curve is not flat, so the flat gate alone gives
+    no bias, and the tie stays; with the rival gate the far one wins. A single clear minimum gets no bias."""
+    d = np.arange(9.0)
+    cost = np.ones((20, 20, 9), np.float32)
+    cost[:, :10, [1, 7]] = 0.0  # left half: two equal depths, planes 1 and 7
+    cost[:, 10:, 7] = 0.0  # right half: plane 7 alone
+    plain, gated = cost.copy(), cost.copy()
+    depth.flat_bias(plain, d, 0.35, 0.04, window=1)
+    depth.flat_bias(gated, d, 0.35, 0.04, window=1, rival=3, rival_scale=0.25)
+    assert np.allclose(plain, cost, atol=1e-6)  # mean minus least is large everywhere: no bias
+    assert (np.argmin(gated[:, :10], axis=2) == 1).all()
+    assert np.allclose(gated[:, 10:], cost[:, 10:], atol=2e-3)  # exp(-0.25 / 0.04) of the ramp at most
+    assert (np.argmin(gated[:, 10:], axis=2) == 7).all()
+    assert gated[5, 5, 7] - gated[5, 5, 1] > 0.2  # nearly the full ramp between them (0.35 * 6 / 8)
