@@ -34,7 +34,7 @@ def _differences(a: SolveConfig, b: SolveConfig) -> dict:
 
 def test_every_named_preset_exists():
     assert set(PRESETS) == {"paper", "literal", "wta", "fig6a", "fig6b", "fig6c", "fig6d", "fig6e", "zkey",
-                            "robust", "soft"}
+                            "robust", "soft", "grille"}
     for name in PRESETS:
         assert isinstance(SolveConfig.preset(name), SolveConfig)
 
@@ -141,3 +141,10 @@ def test_the_soft_preset_is_robust_with_soft_edges_that_follow_the_matte():
     assert soft.depth_config.aggregation == "box" and robust.depth_config.aggregation == "guided"  # as measured
     assert soft.replace(soft_edge=robust.soft_edge, depth_config=robust.depth_config) == robust
     assert SolveConfig.from_dict(soft.to_dict()) == soft  # it round-trips through a stack's metadata
+
+
+def test_the_grille_preset_is_robust_with_the_rival_gate():
+    grille, robust = SolveConfig.preset("grille"), SolveConfig.preset("robust")
+    assert grille.depth_config.rival_jump > 0 == robust.depth_config.rival_jump
+    assert grille.replace(depth_config=robust.depth_config) == robust
+    assert SolveConfig.from_dict(grille.to_dict()) == grille

@@ -543,14 +543,12 @@ def _grille_over_plain_wall(K=5, spacing=45.0):
     return scene
 
 
-def test_a_plain_wall_seen_through_a_grille_goes_back_with_the_rival_gate():
+def test_a_plain_wall_seen_through_a_grille_goes_back_with_the_grille_presets_rival_gate():
     """Through the holes of a grille a plain wall matches at its own depth and at the grille's: two depths far
     apart tie, the curve is not flat (the bars pass over it at the planes between), and semi-global matching
     carries the grille's depth into the holes. The rival gate gives those pixels the bias to the back. (Holes
     narrower than the views' shifts stay near: there the wall's own depth is hidden in some views, and only
     visibility tells the two apart; at 30 px spacing nothing moves.)"""
-    from dataclasses import replace
-
     scene = _grille_over_plain_wall()
     views = scene.views()
     gt = scene.gt_disparity(0.5)
@@ -558,13 +556,17 @@ def test_a_plain_wall_seen_through_a_grille_goes_back_with_the_rival_gate():
     warper = Warper(Camera.from_positions(scene.positions, scene.reference), planes, gt.shape)
     holes = gt < 5
     near = {}
-    for name, config in (("off", replace(depth.DepthConfig(), rival_jump=0.0)), ("default", depth.DepthConfig())):
+    from vfxstereo import SolveConfig
+
+    gated = SolveConfig.preset("grille").depth_config
+    assert depth.DepthConfig().rival_jump == 0 and gated.rival_jump > 0  # off by default, on in the preset
+    for name, config in (("off", depth.DepthConfig()), ("gated", gated)):
         d = depth.robust_depth(views, warper, scene.reference, config=config).disparity
         near[name] = float(np.mean(d[holes] > gt[holes] + 1))
         bars = gt > 5
         near[name + " bars kept"] = float(np.mean(np.abs(d[bars] - gt[bars]) <= 1))
-    assert near["default"] < 0.5 * near["off"], near
-    assert near["default bars kept"] > 0.8, near
+    assert near["gated"] < 0.5 * near["off"], near
+    assert near["gated bars kept"] > 0.8, near
 
 
 def test_the_rival_gate_biases_two_equal_depths_but_not_one_clear_one():

@@ -381,7 +381,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="robust (default: robust multi-view depth, hidden layers, soft edges that follow the "
                         "matte where the views agree; the best measured for z-keying real plates; zkey is the "
                         "same), soft (robust with the matte followed everywhere: hair, fur, foliage over plain "
-                        "backgrounds), paper (Szeliski & Golland's stages with "
+                        "backgrounds), grille (robust with plain surfaces sent back where two far-apart depths "
+                        "match alike: a plain wall through a grille, fence, wicker or foliage; costly on plain "
+                        "foreground objects), paper (Szeliski & Golland's stages with "
                         "our additions), literal (the paper as written), wta, fig6a..fig6e (the paper's "
                         "configurations)")
     s.add_argument("--dataset", help="folder with a dataset.json (views, positions, reference)")

@@ -283,6 +283,8 @@ PRESETS["soft"] = {**PRESETS["robust"], "soft_edge": _softedge.SoftEdgeParams(re
                    # foliage over textured backgrounds: the depth stage's gap reopening (DepthConfig.reopen); its
                    # window stays the box it was measured with (the guided window under soft is not measured)
                    "depth_config": _depth.DepthConfig(reopen=True, aggregation="box")}
+# plain walls seen through grilles, fences, wicker or foliage: the depth stage's rival gate (DepthConfig.rival_jump)
+PRESETS["grille"] = {**PRESETS["robust"], "depth_config": _depth.DepthConfig(rival_jump=3.0)}
 PRESETS["zkey"] = PRESETS["robust"]  # the z-keying default, by its old name
 
 DEFAULT_PRESET = "robust"
