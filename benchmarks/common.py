@@ -151,3 +151,19 @@ def psnr(a: np.ndarray, b: np.ndarray, mask: np.ndarray | None = None, *, peak: 
         err = err[mask]
     mse = float(err.mean())
     return float("inf") if mse == 0.0 else 10.0 * np.log10(peak * peak / mse)
+
+
+def configured(preset: str, overrides: dict | None = None):
+    """The preset with ``overrides`` applied: ``{"soft_edge": {"laplacian": 0.3}, "depth_config": {...}}``
+    (a dict for a group of settings changes only the names it gives) or top-level settings."""
+    import dataclasses
+
+    from vfxstereo import SolveConfig
+
+    config = SolveConfig.preset(preset)
+    for key, value in (overrides or {}).items():
+        current = getattr(config, key, None)
+        if dataclasses.is_dataclass(current) and isinstance(value, dict):
+            value = dataclasses.replace(current, **value)
+        config = config.replace(**{key: value})
+    return config

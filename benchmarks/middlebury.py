@@ -24,14 +24,16 @@ columns the largest disparity brings in from outside the frame are left out); SG
 baseline forward-warps the reference by its disparity (z-buffered, holes filled from the background),
 SGBM run on a pair that does not hold the held-out view.
 
-Run ``python benchmarks/middlebury.py [--quick] [--sets tsukuba Art ...] [--no-paper]``. Figures (error
-maps of ours and SGBM) go to ``benchmarks/out/middlebury/``.
+Run ``python benchmarks/middlebury.py [--quick] [--sets tsukuba Art ...] [--no-paper]``; ``--depth-only`` scores
+the depth stage alone (the same bad pixels, minutes for the 31 sets), ``--preset`` / ``--config JSON`` set ours.
+Figures (error maps of ours and SGBM) go to ``benchmarks/out/middlebury/``.
 """
 
 from __future__ import annotations
 
 import argparse
 import concurrent.futures as cf
+import json
 import multiprocessing as mp
 import resource
 import sys
@@ -108,8 +110,14 @@ def score(d: np.ndarray, gt: np.ndarray, eval_steps: int, border: int) -> dict:
 # One job per fresh process (peak memory is the child's own)
 
 
-def _job(kind: str, name: str, quick: bool) -> dict:
-    """Run one method on one set in this (fresh) process; returns scores, time and peak RSS."""
+def _job(kind: str, name: str, quick: bool, preset: str | None = None, overrides: dict | None = None,
+         depth_only: bool = False) -> dict:
+    """Run one method on one set in this (fresh) process; returns scores, time and peak RSS.
+
+    ``preset`` and ``overrides`` (:func:`common.configured`) are ours (default: the default preset);
+    ``depth_only``: ours and the pair run the depth stage alone (``vfxstereo.depth.robust_depth``), whose map is
+    what the bad pixels score, without the layers and soft edges the full solve builds after it.
+    """
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     from vfxstereo import SolveConfig, baselines, solve
     from vfxstereo.config import DEFAULT_PRESET
@@ -133,7 +141,8 @@ def _job(kind: str, name: str, quick: bool) -> dict:
     t0 = time.perf_counter()
     if kind in ("ours", "pair", "paper"):
         keep = list(range(len(views))) if kind != "pair" else [ref, ref + es]
-        config = SolveConfig.preset(DEFAULT_PRESET if kind != "paper" else "paper")
+        config = (common.configured(preset or DEFAULT_PRESET, overrides) if kind != "paper"
+                  else SolveConfig.preset("paper"))
         if kind == "paper":
             cells = gt.size * len(planes)
             if cells > PAPER_LIMITS["max_cells"]:
@@ -141,9 +150,18 @@ def _job(kind: str, name: str, quick: bool) -> dict:
                 planes = np.arange(planes[0], planes[-1] + step / 2, step)
                 note = f"step {step:g}"
             config = config.replace(refine_iterations=PAPER_LIMITS["refine_iterations"])
-        res = solve(views[keep], positions=pos[keep], reference=keep.index(ref), disparities=planes,
-                    config=config, return_details=True)
-        d = np.asarray(res.disparity, np.float64)
+        if depth_only and kind != "paper" and config.depth == "robust":
+            from vfxstereo.depth import robust_depth
+            from vfxstereo.geometry import Camera
+            from vfxstereo.warp import Warper
+
+            warper = Warper(Camera.from_positions(pos[keep], keep.index(ref)), planes, gt.shape)
+            d = np.asarray(robust_depth(views[keep], warper, keep.index(ref), config=config.depth_config).disparity,
+                           np.float64)
+        else:
+            res = solve(views[keep], positions=pos[keep], reference=keep.index(ref), disparities=planes,
+                        config=config, return_details=True)
+            d = np.asarray(res.disparity, np.float64)
     elif kind == "sgbm":
         d = baselines.sgbm_disparity(views[ref], views[ref + es], float(pos[ref + es] - pos[ref]), planes)
     elif kind in ("heldout_ours", "heldout_sgbm"):
@@ -153,7 +171,7 @@ def _job(kind: str, name: str, quick: bool) -> dict:
         if kind == "heldout_ours":
             keep = [k for k in range(len(views)) if k != held]
             res = solve(views[keep], positions=pos[keep], reference=keep.index(ref), disparities=planes,
-                        return_details=True)
+                        config=common.configured(preset or DEFAULT_PRESET, overrides), return_details=True)
             rendered = res.stack.render(pos[held])
             image = fill_holes(rendered)
         else:
@@ -210,11 +228,11 @@ def error_map(name, kind, reference, gt, d, s, quick) -> Path:
     return path.relative_to(common.HERE.parent)
 
 
-def _run_all(jobs, quick):
+def _run_all(jobs, quick, **options):
     ctx = mp.get_context("spawn")
     results = []
     with cf.ProcessPoolExecutor(max_workers=1, mp_context=ctx, max_tasks_per_child=1) as pool:
-        futures = [pool.submit(_job, kind, name, quick) for kind, name in jobs]
+        futures = [pool.submit(_job, kind, name, quick, **options) for kind, name in jobs]
         for fut, (kind, name) in zip(futures, jobs, strict=True):
             try:
                 r = fut.result()
@@ -228,11 +246,16 @@ def _run_all(jobs, quick):
     return results
 
 
-def run(*, quick: bool = False, sets=None, paper: bool = True, heldout: bool = True) -> str:
+def run(*, quick: bool = False, sets=None, paper: bool = True, heldout: bool = True, preset: str | None = None,
+        overrides: dict | None = None, depth_only: bool = False) -> str:
+    """Every method on every set (see the module docstring); ``depth_only``: no paper and no held-out views."""
     names = list(sets) if sets else (list(QUICK_SETS) if quick else list(all_sets()))
+    if depth_only:
+        paper = heldout = False
     kinds = ["ours", "pair", "sgbm"] + (["paper"] if paper else []) + (["heldout_ours", "heldout_sgbm"]
                                                                        if heldout else [])
-    results = _run_all([(k, n) for n in names for k in kinds], quick)
+    results = _run_all([(k, n) for n in names for k in kinds], quick, preset=preset, overrides=overrides,
+                       depth_only=depth_only)
     by = {(r["kind"], r["name"]): r for r in results}
     return tables(names, kinds, by, quick)
 
@@ -299,8 +322,15 @@ def main(argv=None) -> int:
     p.add_argument("--sets", nargs="+", help="set names (default: all 31)")
     p.add_argument("--no-paper", action="store_true", help="skip the paper preset (the slow one)")
     p.add_argument("--no-heldout", action="store_true", help="skip the held-out view comparison")
+    p.add_argument("--preset", help="our preset (default: the default one)")
+    p.add_argument("--config", type=json.loads, metavar="JSON",
+                   help='settings on top of the preset, e.g. \'{"depth_config": {"far_bias": 0.5}}\'')
+    p.add_argument("--depth-only", action="store_true",
+                   help="ours and the pair: the depth stage alone (the map the bad pixels score; minutes instead "
+                        "of an hour for the 31 sets); no paper, no held-out views")
     a = p.parse_args(argv)
-    text = run(quick=a.quick, sets=a.sets, paper=not a.no_paper, heldout=not a.no_heldout)
+    text = run(quick=a.quick, sets=a.sets, paper=not a.no_paper, heldout=not a.no_heldout, preset=a.preset,
+               overrides=a.config, depth_only=a.depth_only)
     print(text)
     (common.out_dir() / ("middlebury_quick.md" if a.quick else "middlebury.md")).write_text(text)
     return 0

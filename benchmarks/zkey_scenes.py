@@ -31,7 +31,6 @@ reused; fresh processes; ours' change per scene against an earlier run's rows).
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import hashlib
 import json
 import multiprocessing
@@ -42,6 +41,7 @@ from pathlib import Path
 
 import common  # benchmarks/ is on sys.path when run as a script
 import numpy as np
+from common import configured
 
 from vfxstereo import SolveConfig, baselines, composite, solve
 from vfxstereo import zkey_scenes as scenes
@@ -120,18 +120,6 @@ def ensure_cycles_scenes() -> bool:
 
 def build_scene(name: str, K: int):
     return CyclesScene(name, K) if name in CYCLES else scenes.build(name, K=K)
-
-
-def configured(preset: str, overrides: dict | None = None) -> SolveConfig:
-    """The preset with ``overrides`` applied: ``{"soft_edge": {"laplacian": 0.3}, "depth_config": {...}}``
-    (a dict for a group of settings changes only the names it gives) or top-level settings."""
-    config = SolveConfig.preset(preset)
-    for key, value in (overrides or {}).items():
-        current = getattr(config, key, None)
-        if dataclasses.is_dataclass(current) and isinstance(value, dict):
-            value = dataclasses.replace(current, **value)
-        config = config.replace(**{key: value})
-    return config
 
 
 def _depth_path(cache: Path, name: str, K: int, config: SolveConfig) -> Path:
