@@ -644,6 +644,26 @@ def beanie_grille(K: int = 5, data_dir=None) -> Scene:
                   seed=19)
 
 
+@_register
+def boards_rocks(K: int = 5, data_dir=None) -> Scene:
+    """A plain painted board and a plain pillar in front of a furry subject (GT04) over the Rocks2 photo.
+
+    Plain surfaces in *front* (session 23): in the other scenes the plain surfaces are walls at the back, so a
+    prior that sends plain surfaces back looks right there; here it puts the board behind the element.
+    """
+    rng = np.random.default_rng(23)
+    cv = _canvas()
+    rocks = PlanarLayer("Rocks2", opaque(photo("middlebury2005_2006_halfsize/Rocks2", cv, data_dir=data_dir)), 1.4,
+                        gx=0.005)
+    subject = PlanarLayer("subject", place(matte("GT04", 210, data_dir=data_dir, crop=(0.0, 1.0, 0.1, 0.9)), cv,
+                                           60, 110), 7.2)
+    pillar = PlanarLayer("pillar", place(opaque(painted_wall((cv[0], 64), (0.36, 0.39, 0.43), rng)), cv, 0, 292),
+                         10.0)
+    board = PlanarLayer("board", place(opaque(painted_wall((120, 150), (0.66, 0.58, 0.46), rng)), cv, 36, 28), 12.8)
+    return _scene("boards_rocks", [rocks, subject, pillar, board], K, rng, boards_rocks.__doc__, (11.4, 5.5, 3.0),
+                  seed=23)
+
+
 def build(name: str, *, K: int = 5, data_dir=None) -> Scene:
     """The benchmark scene ``name`` (:data:`SCENES`) with ``K`` views (K = 2: a stereo rig, reference left)."""
     try:
