@@ -190,7 +190,10 @@ class DepthConfig:
     * safe on Middlebury only with the rival's bias capped at 0.05 (Midd1 25.81, Monopoly 12.17), where it
       no longer does anything on the z-key scenes (+0.04 / -0.02);
     * the rival's gap relative to the curve's spread instead (two clean minima, not noise): +0.03 / -0.08; a
-      bonus on the rival plane instead of the ramp to the back: tsukuba 3.94 -> 5.58 %."""
+      bonus on the rival plane instead of the ramp to the back: tsukuba 3.94 -> 5.58 %.
+
+    Cost: the depth stage at 1920x1080 x 64 planes (K = 5, ``samples.layered_scene``), side by side, best of 2:
+    1.15x (28.3 against 24.7 s)."""
     rival_scale: float = 0.25
     """The rival's cost gap counts this many times against ``flat_gap`` (the bias weight is
     ``exp(-min(gap, rival_scale * rival) / flat_gap)``, averaged over ``flat_window``)."""
