@@ -835,7 +835,7 @@ def _robust_depth(views, warper, reference, config, progress, keep_volume) -> De
         flat_bias(cost, d, config.far_bias, config.flat_gap,
                   texture=local_deviation(prep.grey[reference]) if config.flat_texture else None,
                   texture_scale=config.flat_texture, window=config.flat_window, gap=gap,
-                  rival=int(round(config.rival_jump / step)) if config.rival_jump > 0 else 0,
+                  rival=max(1, int(round(config.rival_jump / step))) if config.rival_jump > 0 else 0,
                   rival_scale=config.rival_scale, seen=list(count.values()))
         timed("match", t0)
         t0 = time.perf_counter()
