@@ -138,11 +138,11 @@ def _job(kind: str, name: str, quick: bool, preset: str | None = None, overrides
     planes = disparity_range(gt, es)
     note = ""
     out = {"kind": kind, "name": name}
+    ours = common.configured(preset or DEFAULT_PRESET, overrides)  # ours, the pair and the held-out view
     t0 = time.perf_counter()
     if kind in ("ours", "pair", "paper"):
         keep = list(range(len(views))) if kind != "pair" else [ref, ref + es]
-        config = (common.configured(preset or DEFAULT_PRESET, overrides) if kind != "paper"
-                  else SolveConfig.preset("paper"))
+        config = ours if kind != "paper" else SolveConfig.preset("paper")
         if kind == "paper":
             cells = gt.size * len(planes)
             if cells > PAPER_LIMITS["max_cells"]:
@@ -171,7 +171,7 @@ def _job(kind: str, name: str, quick: bool, preset: str | None = None, overrides
         if kind == "heldout_ours":
             keep = [k for k in range(len(views)) if k != held]
             res = solve(views[keep], positions=pos[keep], reference=keep.index(ref), disparities=planes,
-                        config=common.configured(preset or DEFAULT_PRESET, overrides), return_details=True)
+                        config=ours, return_details=True)
             rendered = res.stack.render(pos[held])
             image = fill_holes(rendered)
         else:
