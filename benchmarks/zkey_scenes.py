@@ -122,10 +122,20 @@ def build_scene(name: str, K: int):
     return CyclesScene(name, K) if name in CYCLES else scenes.build(name, K=K)
 
 
+DEPTH_SOURCES = ("depth.py", "_depth_kernels.py", "matching.py", "sweep.py", "sgm.py", "subpixel.py", "warp.py",
+                 "geometry.py", "homography.py", "layers.py")
+"""The modules the depth stage's map comes from: a change in any of them makes the cached maps stale (a depth
+setting's docstring-only change does too; an edit to the soft edges does not)."""
+
+
 def _depth_path(cache: Path, name: str, K: int, config: SolveConfig) -> Path:
-    """Where the depth stage's disparity for this scene, rig and depth configuration is kept in ``cache``."""
-    key = hashlib.sha1(repr((name, K, PLANES.tolist(), config.depth, config.depth_config)).encode()).hexdigest()
-    return cache / f"{name}_K{K}_{key[:16]}.npy"
+    """Where the depth stage's disparity for this scene, rig, depth configuration and depth code is kept in
+    ``cache``."""
+    import vfxstereo
+
+    code = b"".join((Path(vfxstereo.__file__).parent / f).read_bytes() for f in DEPTH_SOURCES)
+    key = hashlib.sha1(repr((name, K, PLANES.tolist(), config.depth, config.depth_config)).encode() + code)
+    return cache / f"{name}_K{K}_{key.hexdigest()[:16]}.npy"
 
 
 def run_scene(name: str, K: int, preset: str, *, figures: bool = True, overrides: dict | None = None,
@@ -313,7 +323,7 @@ def main(argv=None) -> int:
     p.add_argument("--config", type=json.loads, default=None, metavar="JSON",
                    help='settings on top of the preset, e.g. \'{"soft_edge": {"laplacian": 0.3}}\'')
     p.add_argument("--depth-cache", type=Path, default=None, metavar="DIR",
-                   help="keep the depth stage's disparity maps here and reuse them (same depth settings)")
+                   help="keep the depth stage's disparity maps here and reuse them (same depth settings and code)")
     p.add_argument("--jobs", type=int, default=1, help="(scene, K) pairs solved in parallel processes")
     p.add_argument("--json", type=Path, default=None, help="write the rows here")
     p.add_argument("--compare", type=Path, default=None, metavar="JSON",

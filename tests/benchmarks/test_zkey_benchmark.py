@@ -62,3 +62,14 @@ def test_a_cached_depth_map_gives_the_rows_of_a_full_solve(shared_data, tmp_path
     for a, b in zip(first, again, strict=True):
         for m in zkey.METHODS:
             assert a[m] == b[m], m
+
+
+def test_the_depth_cache_key_follows_the_depth_settings_and_the_depth_code(tmp_path, monkeypatch):
+    """A cached map is stale when the depth settings or the depth stage's code change, not when soft edges do."""
+    base = zkey.configured("robust")
+    key = zkey._depth_path(tmp_path, "s", 5, base)
+    assert key == zkey._depth_path(tmp_path, "s", 5, zkey.configured("robust", {"soft_edge": {"laplacian": 0.3}}))
+    assert key != zkey._depth_path(tmp_path, "s", 5, zkey.configured("robust", {"depth_config": {"median": 5}}))
+    assert key != zkey._depth_path(tmp_path, "s", 2, base)
+    monkeypatch.setattr(zkey, "DEPTH_SOURCES", zkey.DEPTH_SOURCES[:-1])  # other code: another key
+    assert key != zkey._depth_path(tmp_path, "s", 5, base)
