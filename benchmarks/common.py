@@ -160,10 +160,12 @@ def configured(preset: str, overrides: dict | None = None):
 
     from vfxstereo import SolveConfig
 
+    def merged(current, value):
+        if dataclasses.is_dataclass(current) and isinstance(value, dict):  # nested groups too (depth matching)
+            return dataclasses.replace(current, **{k: merged(getattr(current, k, None), v) for k, v in value.items()})
+        return value
+
     config = SolveConfig.preset(preset)
     for key, value in (overrides or {}).items():
-        current = getattr(config, key, None)
-        if dataclasses.is_dataclass(current) and isinstance(value, dict):
-            value = dataclasses.replace(current, **value)
-        config = config.replace(**{key: value})
+        config = config.replace(**{key: merged(getattr(config, key, None), value)})
     return config
