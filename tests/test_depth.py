@@ -142,12 +142,14 @@ def test_strips_cover_the_image_once_with_their_margins():
 
 
 def test_the_strip_plan_follows_the_memory_budget_and_the_rig():
-    from vfxstereo.depth import DEPTH_BYTES_PER_CELL, DepthConfig
+    from vfxstereo.depth import DEPTH_BYTES_PER_CELL, DepthConfig, bytes_per_cell
 
+    assert bytes_per_cell(DepthConfig(flat_guard=False)) == DEPTH_BYTES_PER_CELL
+    assert bytes_per_cell(DepthConfig()) == DEPTH_BYTES_PER_CELL + 4  # the guard's unbiased SGM sums
     cam = Camera.from_positions([0, 1, 2, 3, 4], 2)
     d = np.arange(16.0)
     warper = Warper(cam, d, (1000, 200))
-    row = 200 * 16 * DEPTH_BYTES_PER_CELL
+    row = 200 * 16 * bytes_per_cell(DepthConfig())
     assert depth.strip_plan(warper, DepthConfig()) == [(0, 1000, 0, 1000)]  # 77 MB: whole
     plan = depth.strip_plan(warper, DepthConfig(strip_memory=300 * row / 2**30, strip_margin=20))
     assert all(p1 - p0 <= 300 for *_, p0, p1 in plan) and len(plan) == 4  # 300 rows with 2 x 21 of margin
@@ -165,12 +167,12 @@ def test_strips_match_the_whole_solve_on_a_layered_plate():
     """Strips of 40 rows with 49 rows of context: the same depth as the whole plate, to half a plane."""
     from dataclasses import replace
 
-    from vfxstereo.depth import DEPTH_BYTES_PER_CELL, DepthConfig
+    from vfxstereo.depth import DepthConfig, bytes_per_cell
 
     s = samples.layered_scene(shape=(160, 120), num_planes=12, seed=2)
     warper = Warper(s.camera, np.arange(12.0), (160, 120))
     config = DepthConfig()
-    strip = replace(config, strip_margin=48, strip_memory=(40 + 2 * 49) * 120 * 12 * DEPTH_BYTES_PER_CELL / 2**30)
+    strip = replace(config, strip_margin=48, strip_memory=(40 + 2 * 49) * 120 * 12 * bytes_per_cell(config) / 2**30)
     assert len(depth.strip_plan(warper, strip)) == 4
     whole = depth.robust_depth(s.views, warper, s.reference, config=config)
     strips = depth.robust_depth(s.views, warper, s.reference, config=strip)
@@ -584,3 +586,68 @@ def test_the_rival_gate_biases_two_equal_depths_but_not_one_clear_one():
     assert np.allclose(gated[:, 10:], cost[:, 10:], atol=2e-3)  # exp(-0.25 / 0.04) of the ramp at most
     assert (np.argmin(gated[:, 10:], axis=2) == 7).all()
     assert gated[5, 5, 7] - gated[5, 5, 1] > 0.2  # nearly the full ramp between them (0.35 * 6 / 8)
+
+
+def _plain_board_over_textured_wall(K=5):
+    """A plain painted board (d = 11) in front of a strongly textured wall (d = 2): a surface without texture
+    that is *not* at the back."""
+    from scipy import ndimage
+
+    from vfxstereo import zkey_scenes as zs
+
+    rng = np.random.default_rng(7)
+    cv = (zs.SHAPE[0] // 2 + 2 * zs.MARGIN, zs.SHAPE[1] // 2 + 2 * zs.MARGIN)
+    tex = ndimage.gaussian_filter(rng.random((*cv, 3)).astype(np.float32), (1.5, 1.5, 0))
+    wall = zs.PlanarLayer("wall", zs.opaque(np.clip(0.45 + 2.0 * (tex - tex.mean()), 0.0, 1.0)), 2.0)
+    board = zs.PlanarLayer("board", zs.place(zs.opaque(zs.painted_wall((70, 90), (0.66, 0.58, 0.46), rng)), cv,
+                                             zs.MARGIN + 25, zs.MARGIN + 35), 11.0)
+    positions, reference = zs._rig(K)
+    return zs.Scene(name="board", layers=[wall, board], positions=positions, reference=reference,
+                    margin=zs.MARGIN, gains=np.ones(K), vignetting=0.0, noise=(0.003, 0.0004), seed=7,
+                    description="")
+
+
+def test_the_flat_guard_keeps_a_plain_board_in_front_of_a_textured_wall():
+    """The flat-surface bias sends a plain board back behind the textured wall (more than half of it at K = 5);
+    the guard sees that the board's nearer depth ends at its own edges in front of a farther, unlike, textured
+    surface, and keeps it. The wall is left where it is."""
+    scene = _plain_board_over_textured_wall()
+    views = scene.views()
+    gt = scene.gt_disparity(0.5)
+    warper = Warper(Camera.from_positions(scene.positions, scene.reference), np.arange(0.0, 13.25, 0.5), gt.shape)
+    board = gt > 6
+    far, wall_near = {}, {}
+    assert depth.DepthConfig().flat_guard  # on by default
+    for name, config in (("off", depth.DepthConfig(flat_guard=False)), ("guard", depth.DepthConfig())):
+        d = depth.robust_depth(views, warper, scene.reference, config=config).disparity
+        far[name] = float(np.mean(d[board] < gt[board] - 1))
+        wall_near[name] = float(np.mean(d[~board] > gt[~board] + 1))
+    assert far["off"] > 0.4, far  # the case exists: the bias alone loses the board
+    assert far["guard"] < 0.05, far
+    assert wall_near["guard"] <= wall_near["off"] + 0.002, wall_near
+
+
+def _guard_maps(ring_depth, ring_colour):
+    """A 20 x 20 plain region the bias moved from 12 to 1, in a 60 x 60 frame whose other pixels are
+    ``ring_colour`` (None: textured, unlike the region) at unbiased depth ``ring_depth``."""
+    rng = np.random.default_rng(3)
+    colour = rng.uniform(0, 255, (60, 60, 3)).astype(np.float32) if ring_colour is None else \
+        np.broadcast_to(np.float32(ring_colour), (60, 60, 3)).copy()
+    region = np.zeros((60, 60), bool)
+    region[20:40, 20:40] = True
+    colour[region] = (200.0, 190.0, 170.0)
+    unbiased = np.where(region, 12.0, ring_depth).astype(np.float32)
+    biased = np.where(region, 1.0, ring_depth).astype(np.float32)
+    return biased, unbiased, colour, region
+
+
+@pytest.mark.parametrize("case, ring_depth, ring_colour, own", [
+    ("a board in front of a farther textured surface", 2.0, None, True),
+    ("a hole between bars at the region's unbiased depth", 12.0, None, False),
+    ("a plain wall whose own colour continues farther back", 1.0, (200.0, 190.0, 170.0), False),
+])
+def test_own_surfaces_tells_a_board_from_a_hole_and_a_wall(case, ring_depth, ring_colour, own):
+    biased, unbiased, colour, region = _guard_maps(ring_depth, ring_colour)
+    got = depth.own_surfaces(biased, unbiased, colour, jump=2.0, radius=8, share=0.15, unlike=12.0)
+    assert not got[~region].any(), case  # only moved pixels can be given back
+    assert got[region].all() == own and got[region].any() == own, case

@@ -43,7 +43,7 @@ from vfxstereo.warp import Warper
 _BYTES_PER_CELL = 4 * 32
 _BYTES_PER_CELL_PER_VIEW = 4 * 5
 # The robust path (depth="robust"), in two phases that do not overlap. The depth stage holds its cost volumes
-# (depth.DEPTH_BYTES_PER_CELL per cell of the strip it solves, at most DepthConfig.strip_memory GiB: see
+# (depth.bytes_per_cell per cell of the strip it solves, at most DepthConfig.strip_memory GiB: see
 # depth.strip_plan); then the layers are built in place in the stack's one RGBA volume (16 bytes per cell of the
 # planes it holds), with images per pixel beside it (z-buffers and grown z-buffers per view, the soft edges'
 # backgrounds and masks, the hidden layers' sums for the planes that have them, and in the soft edges' later
@@ -68,10 +68,10 @@ def memory_needed(shape: tuple[int, int], n_planes: int, n_views: int, *, depth:
     pixels = int(shape[0]) * int(shape[1])
     cells = pixels * int(n_planes)
     if depth == "robust":
-        from vfxstereo.depth import DEPTH_BYTES_PER_CELL, DepthConfig
+        from vfxstereo.depth import DepthConfig, bytes_per_cell
 
         budget = (DepthConfig().strip_memory if strip_memory is None else strip_memory) * 2**30
-        depth_stage = min(cells * DEPTH_BYTES_PER_CELL, budget)
+        depth_stage = min(cells * bytes_per_cell(DepthConfig()), budget)
         from vfxstereo.softedge import laplacian_bytes
 
         stack = pixels * ((n_planes if layers is None else int(layers)) * _ROBUST_STACK_BYTES_PER_CELL
