@@ -651,3 +651,24 @@ def test_own_surfaces_tells_a_board_from_a_hole_and_a_wall(case, ring_depth, rin
     got = depth.own_surfaces(biased, unbiased, colour, jump=2.0, radius=8, share=0.15, unlike=12.0)
     assert not got[~region].any(), case  # only moved pixels can be given back
     assert got[region].all() == own and got[region].any() == own, case
+
+
+@pytest.mark.parametrize("subject_depth, own", [(12.0, False), (5.0, True)])
+def test_own_surfaces_looks_past_the_rim_a_near_subject_fattened(subject_depth, own):
+    """A plain wall between a textured subject (left) and a farther photo card (right): without the bias the wall
+    took the subject's depth, and its rim beside the subject stays near even with the bias (the subject's
+    texture is in the rim's window). The region the bias moved only touches the rim and the card, so its own ring
+    says 'in front of the card'; grown by the rim, its ring reaches the subject it took its depth from. With the
+    subject farther than the wall's unbiased depth (the control), nothing lent it that depth: it keeps it."""
+    rng = np.random.default_rng(4)
+    colour = rng.uniform(0, 255, (60, 80, 3)).astype(np.float32)  # textured, unlike the wall
+    wall = (200.0, 190.0, 170.0)
+    colour[:, 12:60] = wall
+    unbiased = np.full((60, 80), 5.0, np.float32)  # the card
+    unbiased[:, :12] = subject_depth
+    unbiased[:, 12:60] = 12.0  # the wall, rim and region, at the subject's depth without the bias
+    biased = unbiased.copy()
+    biased[:, 20:60] = 1.0  # the bias moved the region; the rim (12:20) stayed
+    got = depth.own_surfaces(biased, unbiased, colour, jump=2.0, radius=8, share=0.15, unlike=12.0)
+    assert not got[:, :20].any() and not got[:, 60:].any()
+    assert got[:, 20:60].all() == own and got[:, 20:60].any() == own
