@@ -220,7 +220,9 @@ class DepthConfig:
       surrounded by their own textured parts at the same depth, which the ring counts as lenders);
     * Middlebury's 31 sets, depth alone: see the module docstring.
 
-    Cost: the second SGM and one more volume (:func:`bytes_per_cell`)."""
+    Cost: a second SGM in the last pass and one more volume (:func:`bytes_per_cell`). The depth stage at
+    1920x1080 x 64 planes (K = 5, ``samples.layered_scene``), side by side, best of 2: 1.07x the time (41.9
+    against 39.2 s, on a loaded machine), peak traced memory 2.77 against 2.27 GiB. (In every pass: 1.40x.)"""
     guard_jump: float = 2.0
     """Disparity (px per view step) by which the bias must have moved a pixel back, and by which the textured
     surface around must be farther (:func:`own_surfaces`)."""
