@@ -206,10 +206,10 @@ class DepthConfig:
     in front of a textured wall) against as-near, unlike ones it may have taken its depth from (a grille's bars
     around a hole, a subject beside a plain wall). Measured in session 24 against no guard:
 
-    * z-key benchmark, all 206 rows, frame / band dB: 27.54 / 21.22 -> 27.83 / 21.28; tuning (68 rows) 29.20 /
-      22.29 -> 30.10 / 22.46, all of it boards_rocks K = 5 (+10.0 / +1.9: the plain board from 56 % of its
+    * z-key benchmark, all 206 rows, frame / band dB: 27.54 / 21.22 -> 27.83 / 21.27; tuning (68 rows) 29.20 /
+      22.29 -> 30.11 / 22.42, all of it boards_rocks K = 5 (+10.2 / +1.4: the plain board from 56 % of its
       pixels too far to 0.4 %); held-out (138 rows) 26.72 / 20.70 -> 26.71 / 20.70, no scene changed by more
-      than 0.05 dB but doll_plaster K = 5 (+0.05 / +0.14). At K = 2 boards_rocks gains only +0.2 / 0.0: with
+      than 0.05 dB but doll_plaster K = 5 (+0.05 / +0.14). At K = 2 boards_rocks gains only +0.15 / 0.0: with
       one view to one side, the plain board's edges are half-occluded or horizontal, and even unbiased matching
       puts most of it back;
     * the first version, without the grown ring (``guard_carry``): tuning +0.88 / +0.14, but held-out
@@ -218,7 +218,8 @@ class DepthConfig:
     * with the rival gate of the ``grille`` preset, tuning +1.24 / +0.57 against neither; Middlebury's plain
       objects still go back under the rival gate (12.87 % bad against 12.88 without the guard: they are
       surrounded by their own textured parts at the same depth, which the ring counts as lenders);
-    * Middlebury's 31 sets, depth alone: see the module docstring.
+    * Middlebury: the first version, depth alone, all 31 sets 9.53 -> 9.50 % bad (Baby3 8.31 -> 7.48, no set
+      worse by more than 0.09); this one changed none of the 24 sets its full run scored by 0.01.
 
     Cost: a second SGM in the last pass and one more volume (:func:`bytes_per_cell`). The depth stage at
     1920x1080 x 64 planes (K = 5, ``samples.layered_scene``), side by side, best of 2: 1.07x the time (41.9
@@ -229,15 +230,15 @@ class DepthConfig:
     guard_radius: int = 16
     """Reach (px) of the ring around a moved region (:func:`own_surfaces`)."""
     guard_share: float = 0.15
-    """Share of the ring that must be farther and textured (:func:`own_surfaces`)."""
+    """Share of the unlike ring (colour) that must be farther (:func:`own_surfaces`)."""
     guard_carry: float = 0.1
     """At most this share of the unlike ring (against the farther part of it) may be as near as the region: a
     neighbour it may have taken its depth from (:func:`own_surfaces`). Measured: 1.0 lets a plain wall between a
     near subject and a farther photo card come forward with the subject's depth (doll_plaster K = 2, 38 % of
     the pixels too near against 12 %)."""
     guard_unlike: float = 12.0
-    """Colour difference (8-bit sRGB, mean over channels) from the region's mean above which a farther ring
-    pixel counts as another surface, not the region's own surface continuing further back."""
+    """Colour difference (8-bit sRGB, mean over channels) from the region's mean above which a ring pixel counts
+    as another surface, not the region's own surface continuing (:func:`own_surfaces`)."""
     flat_texture: float | None = None
     """Local grey-level deviation (8-bit units, 9 x 9 window) below which a pixel counts as plain: the bias weight
     is also multiplied by ``exp(-deviation / flat_texture)``; None: the cost gap alone decides."""
@@ -520,8 +521,8 @@ def local_deviation(gray: np.ndarray, size: int = 9) -> np.ndarray:
 def flat_bias(cost: np.ndarray, disparities: np.ndarray, strength: float, gap_scale: float,
               texture: np.ndarray | None = None, texture_scale: float | None = None, *, window: int = 9,
               gap: np.ndarray | None = None, rival: int = 0, rival_scale: float = 1.0,
-              seen: list[np.ndarray] | None = None) -> np.ndarray | None:
-    """Add a cost growing towards the near planes where the cost curve is flat (in place); return the weight.
+              seen: list[np.ndarray] | None = None) -> None:
+    """Add a cost growing towards the near planes where the cost curve is flat (in place).
 
     The cost added is ``strength * exp(-gap / gap_scale) * (d - d_min) / (d_max - d_min)`` (times
     ``exp(-texture / texture_scale)`` when both are given).
@@ -541,7 +542,7 @@ def flat_bias(cost: np.ndarray, disparities: np.ndarray, strength: float, gap_sc
     undecided as a flat one (``DepthConfig.rival_jump``).
     """
     if strength <= 0 or cost.shape[2] < 2:
-        return None
+        return
     from scipy import ndimage
 
     gap = cost.mean(axis=2) - cost.min(axis=2) if gap is None else gap
@@ -556,7 +557,6 @@ def flat_bias(cost: np.ndarray, disparities: np.ndarray, strength: float, gap_sc
     ramp = ((d - d[0]) / (d[-1] - d[0])).astype(np.float32)
     for y in range(0, cost.shape[0], 64):  # in bands of rows: no volume-sized temporary
         cost[y:y + 64] += weight[y:y + 64, :, None] * ramp[None, None, :]
-    return weight
 
 
 def own_surfaces(biased: np.ndarray, unbiased: np.ndarray, colour: np.ndarray, *, jump: float, radius: int,
@@ -642,6 +642,14 @@ def rival_gap(cost: np.ndarray, planes: int, seen: list[np.ndarray] | None = Non
             far &= sum(n[y:y + 64] for n in seen) > 0
         out[y:y + 64] = np.where(far, c, np.inf).min(axis=2) - best
     return np.where(np.isfinite(out), out, np.float32(1e3))
+
+
+def seen_at(count: dict, win: np.ndarray) -> np.ndarray:
+    """(H, W) bool: some other view sees each pixel's cell on plane ``win``.
+
+    ``count``: the views' counts per cell, by side (:func:`combine_views`'s input).
+    """
+    return sum(np.take_along_axis(c, win[..., None], axis=2)[..., 0].astype(np.int32) for c in count.values()) > 0
 
 
 def winner_subpixel(S: np.ndarray, disparities: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -924,7 +932,8 @@ def _robust_depth(views, warper, reference, config, progress, keep_volume) -> De
     count = {sd: np.empty((h, w, D), np.uint8) for sd in sides}
     S = np.empty((h, w, D), np.float32)
     windowed = np.empty((h, w, D), np.float32)
-    unbiased_S = np.empty((h, w, D), np.float32) if config.flat_guard and config.far_bias > 0 else None
+    guarded = config.flat_guard and config.far_bias > 0
+    unbiased_S = np.empty((h, w, D), np.float32) if guarded else None
     from vfxstereo.sgm import sgm
     disparity = None
     passes = config.visibility_passes + 1
@@ -954,7 +963,7 @@ def _robust_depth(views, warper, reference, config, progress, keep_volume) -> De
             cost = box_filter(cost, config.box, out=windowed)  # S is free again: SGM writes it
         # the map without the bias first (step 3 on the unbiased cost, into the other buffer); in the last pass
         # only: run in every pass it put 0.15 % more of boards_rocks' pixels (K = 5) right, at twice the cost
-        guard = config.flat_guard and config.far_bias > 0 and p == passes - 1
+        guard = guarded and p == passes - 1
         if guard:
             t1 = time.perf_counter()
             sgm(cost, prep.grey[reference], P1=config.P1, P2=config.P2, sigma=config.sigma, paths=config.paths,
@@ -972,23 +981,21 @@ def _robust_depth(views, warper, reference, config, progress, keep_volume) -> De
         sgm(cost, prep.grey[reference], P1=config.P1, P2=config.P2, sigma=config.sigma, paths=config.paths,
             out=S)
         win, disparity = winner_subpixel(S, d)
+        timed("sgm", t0)
         if guard:
             t1 = time.perf_counter()
-            seen2 = sum(np.take_along_axis(c, win2[..., None], axis=2)[..., 0] for c in count.values()) > 0
             own = own_surfaces(disparity, disparity2, prep.values[reference], jump=config.guard_jump,
                                radius=config.guard_radius, share=config.guard_share, unlike=config.guard_unlike,
-                               carry=config.guard_carry, seen=seen2)
+                               carry=config.guard_carry, seen=seen_at(count, win2))
             win = np.where(own, win2, win)
             disparity = np.where(own, disparity2, disparity)
             S[own] = unbiased_S[own]
             timings["guard"] = timings.get("guard", 0.0) + time.perf_counter() - t1
-        timed("sgm", t0)
     t0 = time.perf_counter()
     reliable = np.ones((h, w), bool)
     if config.fill_occluded and config.visibility_passes > 0:
         # no other view sees the winning cell: half-occluded in every view, so matching said nothing there
-        seen = sum(np.take_along_axis(c, win[..., None], axis=2)[..., 0].astype(np.int32) for c in count.values())
-        reliable &= seen > 0
+        reliable &= seen_at(count, win)
     if config.consistency or (config.consistency is None and K == 2):
         off = _consistency_offset(warper, reference, config.consistency_view)
         if off is not None and config.consistency_method == "rematch":
