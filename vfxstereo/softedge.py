@@ -58,8 +58,22 @@ class SoftEdgeParams:
     """Half-width of the band around depth jumps, px."""
     jump: float = 1.0
     """Smallest depth jump that makes a band, px per view step."""
-    dilate: int = 3
-    """The foreground is grown by this many px before the background is taken from the views."""
+    dilate: int = 0
+    """The foreground is grown by this many px before the background is taken from the views (0: the depth map
+    as it is). Growing it keeps strands the depth map missed out of the background, but the depth map has
+    already fattened the foreground by a few px, and the background behind that rim is then seen by no view
+    and filled in from around: a textured wall's colour there is a guess, the colour model reads the rim's
+    sparse hair (true alpha 0-0.45) as solid, and the element disappears behind it. The background is the
+    soft edges' largest error: with the true background images (and the same depth maps), tuning rows of
+    trolls_art K = 2 go from 18.4 to 24.8 dB on the band, tassels_room K = 5 from 20.7 to 26.5. Measured
+    (session 25, frame / band dB, change over 3): tuning scenes (68 rows) 1 px +0.59 / +0.65, **0 px +0.85 /
+    +0.92** (tassels_room +2.1 / +2.6 and +1.6 / +2.2 at K = 5 / 2, tree_cloth K = 5 +2.7 / +2.6; worst
+    sphere_plant K = 2 -0.27 / -0.24); shrinking the foreground instead (-1 px, views read through the rim)
+    -0.48 / -0.35 against 0 px (wicker_wall K = 2 -7.4 / -6.5); a per-point medoid of the views' samples in
+    place of their mean +0.06 / +0.08 (not kept). Held-out scenes, scored once after the choice (138 rows):
+    +0.26 / +0.50 (fence_dof +3.7 / +3.7 at K = 2, shelf_grille K = 2 +1.0 / +2.6; hair_shelves K = 2
+    -1.33 / -0.52, two_soft_pots K = 2 -1.29 / +0.48, witch_monster K = 2 -0.74 / -0.67: with one other view
+    a missed strand leaks into the background undiluted)."""
     w_views: float = 0.3
     """Weight of the multi-view estimate per unit of background variation (colour^2)."""
     w_colour: float = 0.5
