@@ -134,6 +134,14 @@ def test_the_background_image_is_the_background_where_a_view_sees_it():
     truth = s.stack.rgba[bg, ..., :3]
     assert seen.mean() > 0.8  # measured 0.89: behind the middle of the square no view sees
     np.testing.assert_allclose(rgb[seen], truth[seen], atol=1e-4)
+    # points no view sees take the nearest seen point's colour; fill_sigma smooths it, the seen ones stay
+    nearest, _ = softedge.background_image(s.views, warper, bg, s.gt_disparity(0.5), dilate=1, tolerance=0.5,
+                                           fill_sigma=0.0)
+    from scipy import ndimage
+    iy, ix = ndimage.distance_transform_edt(~seen, return_distances=False, return_indices=True)
+    np.testing.assert_array_equal(nearest, rgb[iy, ix] * 1.0)
+    np.testing.assert_array_equal(nearest[seen], rgb[seen])
+    assert not np.array_equal(nearest[~seen], rgb[~seen])  # the default (3 px) smooths the filled-in points
 
 
 def test_soft_edge_settings_that_cannot_work_are_refused():
