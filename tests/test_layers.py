@@ -616,20 +616,25 @@ def test_the_laplacian_step_brings_a_fattened_hair_edge_closer_to_the_truth_and_
     over back still gives the plate back. (With the background seen behind the rim, ``dilate=0``, the
     estimates alone are better here, 0.085, and the step lifts the RMS to 0.10; on the z-key tuning scenes
     it still gains 0.6 dB: SoftEdgeParams.laplacian.)"""
-    s, views, planes, warper, disparity, index, true_alpha, rim = _fattened_hair()
     errors = {}
     for lap in (0.0, 1.0):
-        vol = layers.front_volume(index, views[s.reference], len(planes))
-        layers.hidden_volume(views, warper, s.reference, disparity, index, out=vol)
-        layers.clamp(vol, 1.0)
-        out, info, _ = softedge.soften_edges_passes(vol, views, warper, s.reference, disparity, index,
-                                                    params=softedge.SoftEdgeParams(laplacian=lap, dilate=3),
-                                                    white=1.0)
-        hold = 1.0 - np.prod(1.0 - out[planes > 3.5, ..., 3], axis=0)
-        errors[lap] = float(np.sqrt(((hold - true_alpha)[rim] ** 2).mean()))
+        errors[lap], out, (s, views, planes) = _fattened_hair_rms(softedge.SoftEdgeParams(laplacian=lap, dilate=3))
         flat = LayerStack(layers.clamp(out, 2.0), planes).flatten()[..., :3]
         assert np.abs(flat - views[s.reference]).max() < 1e-4
     assert errors[1.0] < 0.95 * errors[0.0], errors  # measured 0.174 -> 0.155
+
+
+def _fattened_hair_rms(params):
+    """The soft edges' passes on :func:`_fattened_hair` with ``params``: the RMS error of the hair's holdout
+    on the rim, the volume, and (scene, views, planes)."""
+    s, views, planes, warper, disparity, index, true_alpha, rim = _fattened_hair()
+    vol = layers.front_volume(index, views[s.reference], len(planes))
+    layers.hidden_volume(views, warper, s.reference, disparity, index, out=vol)
+    layers.clamp(vol, 1.0)
+    out, _, _ = softedge.soften_edges_passes(vol, views, warper, s.reference, disparity, index, params=params,
+                                             white=1.0)
+    hold = 1.0 - np.prod(1.0 - out[planes > 3.5, ..., 3], axis=0)
+    return float(np.sqrt(((hold - true_alpha)[rim] ** 2).mean())), out, (s, views, planes)
 
 
 @pytest.mark.data
@@ -638,16 +643,7 @@ def test_the_background_behind_a_fattened_rim_is_read_from_the_views_not_filled_
     (``dilate=3``), the background behind the rim is seen by no view and filled in from around, and the
     rim's sparse hair reads as solid; taken as the depth map is (``dilate=0``), the views see the background
     past the rim and the per-pixel alpha is about twice as close to the truth (RMS 0.174 -> 0.085)."""
-    s, views, planes, warper, disparity, index, true_alpha, rim = _fattened_hair()
-    errors = {}
-    for dilate in (3, 0):
-        vol = layers.front_volume(index, views[s.reference], len(planes))
-        layers.hidden_volume(views, warper, s.reference, disparity, index, out=vol)
-        layers.clamp(vol, 1.0)
-        out, _, _ = softedge.soften_edges_passes(vol, views, warper, s.reference, disparity, index,
-                                                 params=softedge.SoftEdgeParams(laplacian=0.0, dilate=dilate),
-                                                 white=1.0)
-        hold = 1.0 - np.prod(1.0 - out[planes > 3.5, ..., 3], axis=0)
-        errors[dilate] = float(np.sqrt(((hold - true_alpha)[rim] ** 2).mean()))
+    errors = {dilate: _fattened_hair_rms(softedge.SoftEdgeParams(laplacian=0.0, dilate=dilate))[0]
+              for dilate in (3, 0)}
     assert errors[0] < 0.6 * errors[3], errors
     assert softedge.SoftEdgeParams().dilate == 0  # the default reads the views
