@@ -147,7 +147,8 @@ def test_the_background_image_is_the_background_where_a_view_sees_it():
 def test_soft_edge_settings_that_cannot_work_are_refused():
     from vfxstereo.errors import VfxStereoError
 
-    for bad in ({"radius": 0}, {"dilate": -1}, {"snap": 0.5}, {"reach": -1}, {"relabel_floor": -0.1},
+    for bad in ({"radius": 0}, {"dilate": -1}, {"fill_sigma": -1.0}, {"fill_sigma": float("nan")}, {"snap": 0.5},
+                {"reach": -1}, {"relabel_floor": -0.1},
                 {"relabel_radius": -1}, {"min_separation": -0.1}, {"back": "nearest"},
                 {"separation_where": "anywhere"}):
         with pytest.raises(VfxStereoError, match="soft edges"):

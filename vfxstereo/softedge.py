@@ -236,13 +236,15 @@ class SoftEdgeParams:
     """The matting Laplacian's window radius (1: 3 x 3)."""
 
     def __post_init__(self):
-        if (self.radius < 1 or self.dilate < 0 or self.search < 1 or not 0 <= self.snap < 0.5 or self.passes < 1
+        if (self.radius < 1 or self.dilate < 0 or not self.fill_sigma >= 0 or self.search < 1
+                or not 0 <= self.snap < 0.5 or self.passes < 1
                 or self.reach < 0 or self.relabel_radius < 0 or self.relabel_explained < 0 or self.relabel_floor < 0
                 or self.min_separation < 0 or self.back not in ("farthest", "adjacent")
                 or self.separation_where not in ("everywhere", "plain") or self.laplacian < 0
                 or self.laplacian_eps <= 0 or self.laplacian_radius < 1):
-            raise VfxStereoError("soft edges: radius >= 1, dilate >= 0, search >= 1, 0 <= snap < 0.5, passes >= 1, "
-                                 "reach >= 0, relabel_radius >= 0, relabel_explained >= 0, relabel_floor >= 0, "
+            raise VfxStereoError("soft edges: radius >= 1, dilate >= 0, fill_sigma >= 0, search >= 1, "
+                                 "0 <= snap < 0.5, passes >= 1, reach >= 0, relabel_radius >= 0, "
+                                 "relabel_explained >= 0, relabel_floor >= 0, "
                                  "min_separation >= 0, back 'farthest' or 'adjacent', "
                                  "separation_where 'everywhere' or 'plain', laplacian >= 0, laplacian_eps > 0, "
                                  "laplacian_radius >= 1")
