@@ -139,7 +139,7 @@ def test_the_background_image_is_the_background_where_a_view_sees_it():
                                            fill_sigma=0.0)
     from scipy import ndimage
     iy, ix = ndimage.distance_transform_edt(~seen, return_distances=False, return_indices=True)
-    np.testing.assert_array_equal(nearest, rgb[iy, ix] * 1.0)
+    np.testing.assert_array_equal(nearest, rgb[iy, ix])
     np.testing.assert_array_equal(nearest[seen], rgb[seen])
     assert not np.array_equal(nearest[~seen], rgb[~seen])  # the default (3 px) smooths the filled-in points
 

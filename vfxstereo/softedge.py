@@ -49,6 +49,9 @@ from scipy import ndimage
 from vfxstereo.errors import VfxStereoError
 from vfxstereo.progress import Progress, report
 
+FILL_SIGMA = 3.0
+"""Default smoothing (px) of the background filled in where no view sees it (:func:`fill_colour`)."""
+
 
 @dataclass(frozen=True)
 class SoftEdgeParams:
@@ -68,14 +71,15 @@ class SoftEdgeParams:
     trolls_art K = 2 go from 18.4 to 24.8 dB on the band, tassels_room K = 5 from 20.7 to 26.5. Measured
     (session 25, frame / band dB, change over 3): tuning scenes (68 rows) 1 px +0.59 / +0.65, **0 px +0.85 /
     +0.92** (tassels_room +2.1 / +2.6 and +1.6 / +2.2 at K = 5 / 2, tree_cloth K = 5 +2.7 / +2.6; worst
-    sphere_plant K = 2 -0.27 / -0.24); shrinking the foreground instead (-1 px, views read through the rim)
-    -0.48 / -0.35 against 0 px (wicker_wall K = 2 -7.4 / -6.5); a per-point medoid of the views' samples in
-    place of their mean +0.06 / +0.08 (not kept). Held-out scenes, scored once after the choice (138 rows):
-    +0.26 / +0.50 (fence_dof +3.7 / +3.7 at K = 2, shelf_grille K = 2 +1.0 / +2.6; hair_shelves K = 2
-    -1.33 / -0.52, two_soft_pots K = 2 -1.29 / +0.48, witch_monster K = 2 -0.74 / -0.67: with one other view
-    a missed strand leaks into the background undiluted); ``make demo`` (hair over Teddy, K = 5) 30.6 / 27.0 ->
-    33.0 / 29.4; Middlebury's held-out views better on 7 of 8 sets (Wood2 +1.7, Baby1 +0.9, venus -0.1)."""
-    fill_sigma: float = 3.0
+    sphere_plant K = 2 -0.27 / -0.24); shrinking the foreground instead (-1 px, views read through the rim;
+    a scratch change, not kept) -1.33 / -1.27 against 0 px (wicker_wall K = 2 -7.4 / -6.5); a per-point
+    medoid of the views' samples in place of their mean +0.06 / +0.08 (not kept). Held-out scenes, scored
+    once after the choice (138 rows): +0.26 / +0.50 (fence_dof +3.7 / +3.7 at K = 2, shelf_grille K = 2 +1.0 /
+    +2.6; hair_shelves K = 2 -1.33 / -0.52, two_soft_pots K = 2 -1.29 / +0.48, witch_monster K = 2 -0.74 /
+    -0.67: with one other view a missed strand leaks into the background undiluted); ``make demo`` (hair over
+    Teddy, K = 5) 30.6 / 27.0 -> 33.0 / 29.4; Middlebury's held-out views better on 7 of 8 sets (Wood2 +1.7,
+    Baby1 +0.9, venus -0.1)."""
+    fill_sigma: float = FILL_SIGMA
     """Background points no view sees take the colour of the nearest point seen, smoothed by a Gaussian of this
     many px (:func:`fill_colour`). Measured with ``dilate`` 0 on the z-key tuning scenes (frame / band dB): 0
     (the nearest colour alone) -0.22 / -0.25, 8 -0.21 / -0.19 against 3."""
@@ -261,7 +265,7 @@ def _sample(img: np.ndarray, X: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, 
     return out.astype(np.float32), inside
 
 
-def fill_colour(rgb: np.ndarray, known: np.ndarray, *, sigma: float = 3.0) -> np.ndarray:
+def fill_colour(rgb: np.ndarray, known: np.ndarray, *, sigma: float = FILL_SIGMA) -> np.ndarray:
     """Unknown pixels of ``rgb`` filled from the known ones around them (known pixels kept).
 
     The nearest known pixel's colour, then smoothed over the unknown region by a Gaussian of ``sigma`` px
@@ -286,7 +290,7 @@ def grown_zbuffers(views: np.ndarray, warper, disparity: np.ndarray, dilate: int
 def background_image(views: np.ndarray, warper, plane: int, disparity: np.ndarray, *, dilate: int,
                      tolerance: float, gains: np.ndarray | None = None,
                      zbuffers: list[np.ndarray] | None = None,
-                     fill_sigma: float = 3.0) -> tuple[np.ndarray, np.ndarray]:
+                     fill_sigma: float = FILL_SIGMA) -> tuple[np.ndarray, np.ndarray]:
     """Colour of plane ``plane`` at every reference position, from the views that see it clearly.
 
     A view counts where it sees the point clear of the foreground grown by ``dilate`` px (``zbuffers``: those
