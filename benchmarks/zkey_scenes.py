@@ -15,6 +15,8 @@ For each element (a full-frame checker card and a centred one, at every element 
 * **our depth, hard key** -- :func:`vfxstereo.baselines.hard_key` on our disparity map (depth alone);
 * **SGBM key** -- a hard key from OpenCV SGBM's disparity on the reference and its right neighbour;
 * **true-depth key** -- a hard key from the true front-most disparity (alpha > 0.5);
+* **ours from the true depth** (``--true-depth``) -- ours with the depth stage's map replaced by the true one:
+  what the later stages would give with exact depth, so how much of the gap is left to the depth stage;
 
 PSNR (dB, scene-linear RGB, peak 1) against the true comp, over the frame and over the soft-edge band
 (:meth:`vfxstereo.zkey_scenes.Scene.band`) where the element is (alpha > 0); an element that touches fewer than 50
@@ -62,6 +64,10 @@ TIE = 0.005
 maps put the same surfaces in front of the element, or both above :data:`CAP`); the target counts them as not
 beating it."""
 METHODS = ("ours", "ours, initial", "our depth, hard key", "SGBM key", "true-depth key")
+TRUE_DEPTH = "ours from the true depth"
+"""With ``--true-depth``: ours' later stages (initial volume, refinement, soft edges) run from the true depth
+map instead of the depth stage's -- how far they would go with exact depth, so what is left to the depth stage
+(session 26: +1.64 dB over the true-depth key on the band, against -5.10 from our depth)."""
 CYCLES = ("sphere_plant", "plush_wall", "fence_dof")
 """Cycles-rendered scenes (benchmarks/cycles_scenes.py); ``fence_dof`` is kept out of tuning."""
 CYCLES_HELD_OUT = ("fence_dof",)
@@ -145,11 +151,12 @@ def _depth_path(cache: Path, name: str, K: int, config: SolveConfig) -> Path:
 
 
 def run_scene(name: str, K: int, preset: str, *, figures: bool = True, overrides: dict | None = None,
-              depth_cache: Path | None = None) -> list[dict]:
+              depth_cache: Path | None = None, true_depth: bool = False) -> list[dict]:
     """Solve one scene with one rig size and score every element; one row per element.
 
     ``overrides``: settings on top of the preset (:func:`configured`); ``depth_cache``: a folder where the depth
-    stage's disparity maps are kept and reused (``solve(disparity=...)``).
+    stage's disparity maps are kept and reused (``solve(disparity=...)``); ``true_depth``: also score the later
+    stages run from the true depth map (:data:`TRUE_DEPTH`).
     """
     scene = build_scene(name, K)
     views = scene.views()
@@ -173,6 +180,9 @@ def run_scene(name: str, K: int, preset: str, *, figures: bool = True, overrides
     d_sgbm = baselines.sgbm_disparity(plate, views[right], float(scene.positions[right]
                                                                    - scene.positions[scene.reference]), PLANES)
     d_true = scene.gt_disparity(0.5)
+    oracle = None
+    if true_depth:  # the later stages from an exact depth map: what is left to the depth stage
+        oracle = solve_it(np.clip(d_true, PLANES[0], PLANES[-1]).astype(np.float32)).stack
     band = scene.band()
     # where our final front surface (alpha > 0.5) lies against the truth: too near, right, too far (> 1 px)
     ours_front = np.nan_to_num(stack.disparity_map(0.5), nan=-np.inf)
@@ -187,6 +197,8 @@ def run_scene(name: str, K: int, preset: str, *, figures: bool = True, overrides
             "SGBM key": baselines.hard_key(plate, d_sgbm, element, D),
             "true-depth key": baselines.hard_key(plate, d_true, element, D),
         }
+        if oracle is not None:
+            comps[TRUE_DEPTH] = composite.insert(oracle, element, disparity=D)[..., :3]
         row = {"scene": name, "K": K, "element": el_name, "D": D, "seconds": sw.seconds}
         on_band = band & (element[..., 3] > 0)  # soft edges the element shows through or around
         if on_band.sum() < 50:
@@ -222,15 +234,16 @@ def _figure(path, truth, comps, band) -> None:
 
 def tables(rows: list[dict], title: str) -> str:
     """The per-row table and the summary."""
-    headers = ["scene", "K", "element", *[f"{m} (frame / band)" for m in METHODS], "s"]
+    methods = METHODS + ((TRUE_DEPTH,) if rows and all(TRUE_DEPTH in r for r in rows) else ())
+    headers = ["scene", "K", "element", *[f"{m} (frame / band)" for m in methods], "s"]
     body = []
     for r in rows:
         body.append([r["scene"], r["K"], r["element"],
-                     *[f"{r[m][0]:.2f} / {r[m][1]:.2f}" for m in METHODS], f"{r['seconds']:.1f}"])
+                     *[f"{r[m][0]:.2f} / {r[m][1]:.2f}" for m in methods], f"{r['seconds']:.1f}"])
     out = common.section(title, common.markdown_table(headers, body))
     n = len(rows)
     mean = {m: (np.mean([min(r[m][0], CAP) for r in rows]), np.mean([min(r[m][1], CAP) for r in rows]))
-            for m in METHODS}
+            for m in methods}
     def tally(i):  # rows ours beats the SGBM key on, ties with (the same capped PSNR to TIE dB) and loses
         diff = [min(r["ours"][i], CAP) - min(r["SGBM key"][i], CAP) for r in rows]
         return sum(x >= TIE for x in diff), sum(abs(x) < TIE for x in diff), sum(x <= -TIE for x in diff)
@@ -242,7 +255,7 @@ def tables(rows: list[dict], title: str) -> str:
     gap = mean["ours"][1] - mean["true-depth key"][1]
     summary = [
         "| method | mean frame dB | mean band dB |", "|---|---|---|",
-        *[f"| {m} | {mean[m][0]:.2f} | {mean[m][1]:.2f} |" for m in METHODS],
+        *[f"| {m} | {mean[m][0]:.2f} | {mean[m][1]:.2f} |" for m in methods],
         "",
         f"ours beats the SGBM key on {wins_frame}/{n} rows over the frame (ties {ties_frame}, {exact(0)} of them "
         f"with both above {CAP:g} dB; loses {lost_frame}) and {wins_band}/{n} on the band (ties {ties_band}, "
@@ -250,6 +263,12 @@ def tables(rows: list[dict], title: str) -> str:
         f"band vs the true-depth key: {gap:+.2f} dB (target >= +1: {'MET' if gap >= 1 else 'NOT MET'}); "
         f"later stages worse than the initial volume (frame, > 0.05 dB) on {worse}/{n} rows.",
     ]
+    if TRUE_DEPTH in methods:
+        summary.append(
+            f"From the true depth, ours scores {mean[TRUE_DEPTH][1] - mean['true-depth key'][1]:+.2f} dB against "
+            f"the true-depth key on the band (ours from our depth: {gap:+.2f}); its later stages are worse than "
+            f"its initial volume (the true-depth key, frame, > 0.05 dB) on "
+            f"{sum(r[TRUE_DEPTH][0] < r['true-depth key'][0] - 0.05 for r in rows)}/{n} rows.")
     split = [r["band error by depth"] for r in rows if "band error by depth" in r]
     if split:
         ours = np.sum([b["ours"] for b in split], axis=0)
@@ -271,13 +290,14 @@ def tables(rows: list[dict], title: str) -> str:
 
 
 def _scene_job(args) -> list[dict]:
-    name, K, preset, figures, overrides, depth_cache = args
-    return run_scene(name, K, preset, figures=figures, overrides=overrides, depth_cache=depth_cache)
+    name, K, preset, figures, overrides, depth_cache, true_depth = args
+    return run_scene(name, K, preset, figures=figures, overrides=overrides, depth_cache=depth_cache,
+                     true_depth=true_depth)
 
 
 def run(*, names=None, held_out: bool = False, every: bool = True, Ks=(5, 2), preset: str = "robust",
         figures: bool = True, quick: bool = False, overrides: dict | None = None, depth_cache: Path | None = None,
-        jobs: int = 1, rows_out: list | None = None) -> str:
+        jobs: int = 1, rows_out: list | None = None, true_depth: bool = False) -> str:
     """Score the scenes (``make bench``: all of them; the script's own default: the tuning scenes).
 
     ``jobs`` > 1 solves (scene, K) pairs in that many processes, each pair in a fresh one; ``rows_out``
@@ -290,7 +310,7 @@ def run(*, names=None, held_out: bool = False, every: bool = True, Ks=(5, 2), pr
     if any(n in CYCLES for n in names) and not ensure_cycles_scenes():
         print("  no Cycles scenes (no .venv-blender to render them): scored without them", file=sys.stderr)
         names = [n for n in names if n not in CYCLES]
-    tasks = [(name, K, preset, figures, overrides, depth_cache) for name in names for K in Ks]
+    tasks = [(name, K, preset, figures, overrides, depth_cache, true_depth) for name in names for K in Ks]
     if jobs > 1:
         pool = multiprocessing.get_context("spawn").Pool(jobs, maxtasksperchild=1)
         results = pool.imap(_scene_job, tasks)
@@ -352,11 +372,13 @@ def main(argv=None) -> int:
     p.add_argument("--compare", type=Path, default=None, metavar="JSON",
                    help="rows of an earlier run (--json): print ours' change per scene")
     p.add_argument("--no-figures", action="store_true")
+    p.add_argument("--true-depth", action="store_true",
+                   help="also score ours' later stages run from the true depth map (what is left to the depth stage)")
     a = p.parse_args(argv)
     rows: list[dict] = []
     text = run(names=a.scenes, held_out=a.held_out, every=a.all and not a.held_out, Ks=tuple(a.K), preset=a.preset,
                figures=not a.no_figures, overrides=a.config, depth_cache=a.depth_cache, jobs=a.jobs,
-               rows_out=rows)
+               rows_out=rows, true_depth=a.true_depth)
     if a.compare is not None:
         text += "\n" + compare(rows, json.loads(a.compare.read_text()))
     print(text)
