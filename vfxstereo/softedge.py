@@ -96,7 +96,12 @@ class SoftEdgeParams:
     trolls_art K = 2 +1.5 / +2.5; 0.001 +0.49 / +0.66) but not on the held-out scenes, scored after: 0.003
     -0.14 / -0.04 (hair_shelves K = 2 -3.7 / -1.3, two_soft_pots K = 5 -1.0 / -0.1; rows losing to the SGBM
     key 7 -> 10 over the frame), and Middlebury's held-out views fell a little (teddy 31.27 -> 31.08 dB, venus
-    36.27 -> 36.20). Kept at 0.01."""
+    36.27 -> 36.20). Kept at 0.01. Session 26, the same pattern three more ways (tuning, then held-out): a label
+    of 0.5 instead of 1 on the near-side pixels next to a depth jump (45 % of them are background the depth map
+    fattened) +0.22 / +0.41, then -0.10 / -0.13 (shelf_grille K = 2 -3.1 / -4.5, hair_shelves K = 2 -3.8 /
+    -1.4); of the colour samples that explain a pixel within 1e-4, the one that separates best (as for the
+    outer pixels, ``OUTER_TIE``) +0.11 / +0.20, then -0.27 / +0.03 (two_soft_pots K = 5 -3.7 / -0.5); no colour
+    weight where no view sees the background -1.50 / -1.77 (fur_grey_wall K = 2 -7.8 / -8.9)."""
     snap: float = 0.05
     """Alphas within this of 0 or 1 become 0 or 1 (most band pixels are clear or solid; the estimates carry
     noise). Chosen with ``min_separation`` 0.18 (the ``soft`` preset's), z-key tuning scenes (frame / band dB,
