@@ -302,6 +302,7 @@ def run(*, names=None, held_out: bool = False, every: bool = True, Ks=(5, 2), pr
 
     ``jobs`` > 1 solves (scene, K) pairs in that many processes, each pair in a fresh one; ``rows_out``
     receives the rows."""
+    given = names
     if quick:
         names, Ks = names or ["trolls_art", "fur_grey_wall"], (5,)
     if names is None:
@@ -329,7 +330,8 @@ def run(*, names=None, held_out: bool = False, every: bool = True, Ks=(5, 2), pr
             pool.terminate()
     if rows_out is not None:
         rows_out.extend(rows)
-    which = "all scenes" if every else ("held-out scenes" if held_out else "tuning scenes")
+    which = ("all scenes" if every else ("held-out scenes" if held_out else "tuning scenes")) if given is None \
+        else "scenes " + ", ".join(given)
     settings = f", settings {json.dumps(overrides)}" if overrides else ""
     return tables(rows, f"Z-key on production-like plates ({which}, preset {preset}{settings}, "
                         f"{common.machine_line()})")
