@@ -330,8 +330,10 @@ def run(*, names=None, held_out: bool = False, every: bool = True, Ks=(5, 2), pr
             pool.terminate()
     if rows_out is not None:
         rows_out.extend(rows)
-    which = ("all scenes" if every else ("held-out scenes" if held_out else "tuning scenes")) if given is None \
-        else "scenes " + ", ".join(given)
+    if given is not None:
+        which = "scenes " + ", ".join(given)
+    else:
+        which = "all scenes" if every else ("held-out scenes" if held_out else "tuning scenes")
     settings = f", settings {json.dumps(overrides)}" if overrides else ""
     return tables(rows, f"Z-key on production-like plates ({which}, preset {preset}{settings}, "
                         f"{common.machine_line()})")
