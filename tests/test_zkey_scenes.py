@@ -65,6 +65,22 @@ def test_unknown_scene_is_refused():
         scenes.build("nope")
 
 
+def test_held_out_and_retired_scenes_are_registered_and_apart():
+    held, retired = set(scenes.HELD_OUT), set(scenes.RETIRED)
+    assert held and retired and not held & retired
+    assert held | retired <= set(scenes.SCENES)
+    assert len(held) == len(scenes.HELD_OUT) and len(retired) == len(scenes.RETIRED)
+
+
+@pytest.mark.data
+@pytest.mark.parametrize("name", scenes.HELD_OUT)
+def test_held_out_scenes_have_three_or_more_depths_and_a_soft_band(shared_data, name):
+    s = scenes.build(name, K=2, data_dir=shared_data)
+    gt = s.gt_disparity(0.5)
+    assert len(s.layers) >= 3 and gt.max() - gt.min() >= 8.0
+    assert s.band().mean() > 0.02
+
+
 def test_fill_row_farther_takes_the_farther_neighbour():
     d = np.array([[5.0, 0.0, 0.0, 2.0, 9.0, 0.0]], np.float32)
     valid = np.array([[True, False, False, True, True, False]])
