@@ -672,3 +672,72 @@ def test_own_surfaces_looks_past_the_rim_a_near_subject_fattened(subject_depth, 
     got = depth.own_surfaces(biased, unbiased, colour, jump=2.0, radius=8, share=0.15, unlike=12.0)
     assert not got[:, :20].any() and not got[:, 60:].any()
     assert got[:, 20:60].all() == own and got[:, 20:60].any() == own
+
+
+def test_colour_shares_kernel_matches_its_numpy_reference(rng):
+    from vfxstereo import _depth_kernels
+
+    d = rng.choice([2.0, 2.2, 5.0, 9.0, 9.3], size=(30, 40)).astype(np.float32)
+    colour = (rng.choice([0.1, 0.3, 0.5], size=(30, 40, 3)) + rng.uniform(0, 0.03, (30, 40, 3))).astype(np.float32)
+    off = depth.colour_offsets(6, 2)
+    assert len(off) == len({tuple(o) for o in off}) and (np.diff((off ** 2).sum(axis=1)) >= 0).all()
+    target = np.empty(d.shape, np.float32)
+    counts = np.empty(d.shape + (4,), np.int32)
+    _depth_kernels.colour_shares(d, colour, off, np.float32(0.04), np.float32(1.5), target, counts)
+    ref_target, ref_counts = depth.colour_shares_reference(d, colour, off, 0.04, 1.5)
+    assert counts[..., 0].sum() > 100 and counts[..., 2].sum() > 100  # both kinds of neighbour occur
+    np.testing.assert_array_equal(counts, ref_counts)
+    np.testing.assert_allclose(target, ref_target, equal_nan=True)
+
+
+def _fattened_board():
+    """A wall (d = 2, grey) and an orange board (d = 10) whose map grew 3 px over the wall on its left side and
+    holds a wall-coloured island inside and a dark spot of the board's own."""
+    rng = np.random.default_rng(5)
+    h, w = 70, 80
+    colour = np.empty((h, w, 3), np.float32)
+    colour[:] = (0.5, 0.5, 0.5)
+    colour[:, 30:] = (0.9, 0.5, 0.1)
+    colour[56:60, 38:42] = (0.5, 0.5, 0.5)  # wall colour inside the board: an island, not joined to the wall
+    colour[10:14, 60:64] = (0.2, 0.1, 0.05)  # a dark spot on the board
+    colour += rng.uniform(-0.01, 0.01, colour.shape).astype(np.float32)
+    truth = np.full((h, w), 2.0, np.float32)
+    truth[:, 30:] = 10.0
+    fat = truth.copy()
+    fat[:, 27:30] = 10.0  # the window grew the board over the wall
+    fat[56:60, 38:42] = 10.0
+    return colour, truth, fat
+
+
+def test_colour_reopening_gives_a_grown_rim_back_to_the_wall_and_nothing_else():
+    colour, truth, fat = _fattened_board()
+    out, moved = depth.reopen_by_colour(fat, colour, radius=20, stride=2)
+    # the rim joins the wall it grew over (where the island's wall colour is out of reach: within it, the island
+    # counts as the board's own colour, and the rim there may stay)
+    np.testing.assert_array_equal(out[:30, 27:30], truth[:30, 27:30])
+    assert np.all(out <= fat)  # never nearer
+    target, counts = depth.colour_shares_reference(fat, colour, depth.colour_offsets(20, 2), 0.04, 1.5)
+    nb, NB, nf, NF = np.moveaxis(counts[56:60, 38:42], -1, 0)
+    assert np.all(nb / NB > 4.0 * nf / NF)  # the island's colour belongs to the wall within reach...
+    assert np.all(out[56:60, 38:42] == 10.0)  # ...but it does not join the wall: it stays
+    assert np.all(out[:, 30:] == 10.0) and np.all(out[:, :27] == 2.0)
+    assert not moved[:, 30:].any() and moved[:, 27:30].sum() >= 90
+
+
+def test_colour_reopening_runs_in_the_stage_by_default_and_its_settings_are_checked():
+    from dataclasses import replace
+
+    from vfxstereo.errors import VfxStereoError
+    from vfxstereo.layers import plane_index
+
+    views, warper, ref, gt, gaps, board = _gapped_scene(plain_background=False)
+    assert depth.DepthConfig().colour_reopen
+    on = depth.robust_depth(views, warper, ref)
+    off = depth.robust_depth(views, warper, ref, config=replace(depth.DepthConfig(), colour_reopen=False))
+    assert "colour reopen" in on.timings and "colour reopen" not in off.timings
+    assert np.all(on.disparity <= off.disparity)
+    np.testing.assert_array_equal(on.index, plane_index(on.disparity, warper.disparities))
+    for bad in ({"colour_radius": 0}, {"colour_stride": 0}, {"colour_like": 0.0}, {"colour_ratio": 0.0},
+                {"colour_jump": -1.0}):
+        with pytest.raises(VfxStereoError):
+            depth.DepthConfig(**bad)

@@ -561,3 +561,56 @@ def colour_error(view, ref, gain, u, v, out):
                 dd = gain[c] * s - ref[y, x, c]
                 e += dd * dd
             out[y, x] = e
+
+
+# --------------------------------------------------------------------------------------------------------
+# Colour reopening: how common a pixel's colour is among the farther and the same-depth pixels around it
+
+
+@njit(cache=True, parallel=True, nogil=True)
+def colour_shares(disparity, colour, offsets, like, jump, target, counts):
+    """How common each pixel's colour is among the farther and the same-depth pixels around it.
+
+    Over the window ``offsets`` (nearest first): ``counts[y, x]`` = (farther pixels of its colour, farther
+    pixels, same-depth pixels of its colour, same-depth pixels); ``target[y, x]``: the disparity of the nearest
+    farther pixel of its colour (NaN: none).
+
+    Farther: disparity below the pixel's by more than ``jump``; same depth: within ``jump / 2``; of its colour:
+    every channel within ``like``. Offsets that leave the frame are skipped.
+    """
+    H, W = disparity.shape
+    n = offsets.shape[0]
+    for y in prange(H):
+        for x in range(W):
+            d = disparity[y, x]
+            nb = 0
+            NB = 0
+            nf = 0
+            NF = 0
+            t = np.float32(np.nan)
+            for i in range(n):
+                yy = y + offsets[i, 0]
+                xx = x + offsets[i, 1]
+                if yy < 0 or yy >= H or xx < 0 or xx >= W:
+                    continue
+                dq = disparity[yy, xx]
+                alike = True
+                for c in range(colour.shape[2]):
+                    if abs(colour[yy, xx, c] - colour[y, x, c]) >= like:
+                        alike = False
+                        break
+                if dq < d - jump:
+                    NB += 1
+                    if alike:
+                        nb += 1
+                        if t != t:
+                            t = dq
+                elif abs(dq - d) <= 0.5 * jump:
+                    NF += 1
+                    if alike:
+                        nf += 1
+            target[y, x] = t
+            counts[y, x, 0] = nb
+            counts[y, x, 1] = NB
+            counts[y, x, 2] = nf
+            counts[y, x, 3] = NF

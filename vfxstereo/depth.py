@@ -41,13 +41,43 @@ This stage gives the layered model a dependable front surface instead, from clas
    surface with the plate's colour and neither the pixel's own depth nor a nearer surface around explains it
    as well: the gaps of leaves, a canopy or wicker that the window of steps 1-3 filled with the foreground's
    depth.
+10. Colour reopening (``colour_reopen``, :func:`reopen_by_colour`), on the whole plate: a pixel whose colour is
+   far more common among the farther surfaces within 40 px than on its own surface takes the depth of the
+   nearest farther pixel of its colour, where the pixels so moved join a farther surface already in the map:
+   the rims and gaps the window of steps 1-3 grew over, and a stereo pair's half-occluded strips, where no view
+   can place the pixel and its colour is the only evidence left.
 
 Measured (``benchmarks/middlebury.py``, all 31 sets, one published px apart, the GT's view as reference):
-0.49x OpenCV SGBM's bad pixels on average (9.5 % against 19.5 %), at most 0.89x (Midd1). Per set: tsukuba
-3.9 %, venus 1.4 %, teddy 5.4 %, cones 10.4 %, Art 11.3 %, Midd1 25.7 %. (With the box window, until session
+0.47x OpenCV SGBM's bad pixels on average (9.4 % against 19.5 %), at most 0.88x (Midd1). Per set: tsukuba
+3.7 %, venus 1.4 %, teddy 5.3 %, cones 10.3 %, Art 11.0 %, Midd1 25.5 % (before step 10, session 26: 9.5 %,
+0.49x; tsukuba 3.9, teddy 5.4, cones 10.4, Art 11.3, Midd1 25.7). (With the box window, until session
 20: 9.8 %, 0.50x; from the classic pair alone 14.9 %, 18.1 % before the rematch check and the frame-edge step;
 held-out view PSNR 37.8 dB against the SGBM warp's 34.2.)
 (With ``flat_window`` 31 and ``far_bias`` 0.25, until session 15: 9.6 %, 0.49x, worst 0.91x.)
+
+Where the map's foreground fattening costs the z-key most (session 27, the z-key scenes that were tuning scenes
+then, 68 rows): of the near-edge pixels put more than 1 px too near (19 % of the pixels within 4 px of a true
+depth edge), a third have a true surface that no other view sees (the holes of wicker and foliage, the gaps
+between branches, a stereo pair's half-occluded strips), and setting only those to the truth gains +2.0 /
++2.7 dB frame / band; the fattened pixels the views do see gain +0.9 / +1.1 where clean and +0.3 / +0.8 where
+mixed (all of them: +2.8 / +3.8). Matching cannot decide the unseen ones, and on a plain background not the
+seen ones either: with the true visibility, the plate's colour at the pixel matches the truth better than the
+map's disparity for only a third of the fattened pixels. Hence step 10, which decides by colour. Its first
+version also opened islands (moved pixels that join no farther surface: the holes of wicker, the gaps in hair):
++0.3 / +0.9 on those 68 rows, but -1.2 / -0.5 on the 162 rows of the scenes then held out (shelf_grille
+-6.7 / -6.1 and -8.5 / -8.0, two_soft_pots K = 5 -8.5 frame, artichoke_books K = 2 -7.0 frame): a few pixels of
+a solid subject whose colour is common behind it (a teddy's red stitching, a toy's dark jacket) became islands
+of the wall's depth, and the soft edges then opened the subject around each new depth edge, in small-card rows
+that were near-exact before. Opening islands only where a view sees the farther surface there with the
+pixel's colour added almost nothing (the islands are the unseen ones). Limited to pixels within 3 px of a
+farther surface instead, it gave +0.13 / +0.11 and -0.02 / +0.07. Refining edges with ``edge_refine`` puts
+more pixels too near, not fewer (19 % -> 21 % of those near-edge pixels).
+
+Step 10 on Middlebury (session 27, all 31 sets, ``--depth-only``): 9.53 -> 9.39 % bad pixels (0.48x -> 0.47x
+SGBM's; the pair 14.41 -> 14.33), better on 24 sets (tsukuba 3.94 -> 3.65, Art 11.33 -> 10.98, Lampshade1 6.64
+-> 6.24, Laundry 17.93 -> 17.49), worse on 5 by at most 0.07 (Plastic 34.45 -> 34.52, Cloth3 2.33 -> 2.37); the
+worst ratio to SGBM 0.89x -> 0.88x (Midd1 25.74 -> 25.46). At 1920 x 1080 the step takes about 6 s on 2 busy
+cores (a numba kernel over 314 window samples per pixel), against the stage's 34 s.
 """
 
 from __future__ import annotations
@@ -341,6 +371,29 @@ class DepthConfig:
     the views'); a rig with fewer other views skips the step. With 1, a stereo pair's one other view decides
     alone, and beside a thin wire or a filament the pixel's own depth fails there (half-occluded) while a
     chance match passes the ratio: session 19's first measurement (``reopen``) lost most at K = 2."""
+    colour_reopen: bool = True
+    """Step 10 (:func:`reopen_by_colour`), on the whole plate: a pixel whose colour is far more common among the
+    farther surfaces beside it than on its own surface takes the nearest farther one's depth, where that joins
+    a farther surface already in the map. Against the foreground the window grows over the gaps beside it and
+    over half-occluded strips, which no view can place. Measured (session 27, z-key benchmark, frame / band dB):
+    the 230 rows of the 25 tuning scenes 28.50 / 22.19 -> 28.66 / 22.32 (tassels_room +1.1 / +0.5 and +1.5 /
+    +1.0, trolls_art K = 2 +0.6 / +0.6; worst doll_plant K = 2 -0.2 / -0.2, witch_monster K = 2 -0.2 / -0.2,
+    fence_dof -0.2 / -0.1), rows losing to the SGBM key 16 / 12 -> 16 / 11; the four held-out scenes, scored once
+    after it, 30.70 / 27.75 -> 30.86 / 28.02 (duck_monster_baby K = 2 +0.7 / +0.7; fur_pillar_monopoly -0.1 /
+    0.0), rows losing 4 / 3 -> 6 / 4 (two rows that tied or won by < 0.5 dB now lose by 0.01-0.05 dB, one band
+    row that tied loses by 4.6 dB: a small card under the artichoke's hairs). Middlebury: see the module
+    docstring. The versions that also opened islands inside a surface gained more on the first seven tuning
+    scenes and lost on the others (module docstring)."""
+    colour_radius: int = 40
+    """Reach of step 10's window (px)."""
+    colour_stride: int = 4
+    """Step 10's window samples every this many px."""
+    colour_like: float = 0.04
+    """Two colours are alike when every channel (sRGB-encoded, 0-1) is within this."""
+    colour_ratio: float = 4.0
+    """How many times more common among the farther surfaces than on its own a pixel's colour must be."""
+    colour_jump: float = 1.5
+    """Disparity difference (px per view step) that makes a pixel farther; within half of it, the same depth."""
 
     def __post_init__(self):
         if (self.box < 1 or self.paths not in (4, 8) or self.median < 0 or self.visibility_passes < 0
@@ -361,6 +414,10 @@ class DepthConfig:
             raise VfxStereoError(f"SGM needs 0 <= P1 <= P2, got P1={self.P1}, P2={self.P2}")
         if not (self.strip_memory > 0 and self.strip_margin >= 0):
             raise VfxStereoError("depth settings: strip_memory > 0 GiB, strip_margin >= 0 rows")
+        if not (self.colour_radius >= 1 and self.colour_stride >= 1 and self.colour_like > 0
+                and self.colour_ratio > 0 and self.colour_jump >= 0):
+            raise VfxStereoError("depth settings: colour_radius, colour_stride >= 1, colour_like, colour_ratio > 0, "
+                                 "colour_jump >= 0")
 
 
 @dataclass
@@ -899,15 +956,23 @@ def robust_depth(views: np.ndarray, warper, reference: int, *, config: DepthConf
 
 
 def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConfig, progress) -> DepthResult:
-    """``res`` after step 9 (``config.reopen``), on the whole plate: its candidates reach 64 px."""
-    if not config.reopen or config.reopen_passes == 0 or views.shape[0] - 1 < config.reopen_views:
-        return res
+    """``res`` after steps 9 (``config.reopen``; candidates reach 64 px) and 10 (``config.colour_reopen``)."""
     from vfxstereo.layers import plane_index
+    from vfxstereo.sweep import matching_values
 
-    t0 = time.perf_counter()
-    res.disparity = reopen_gaps(views, warper, reference, res.disparity, config=config, progress=progress)[0]
-    res.index = plane_index(res.disparity, warper.disparities)
-    res.timings["reopen"] = time.perf_counter() - t0
+    if config.reopen and config.reopen_passes > 0 and views.shape[0] - 1 >= config.reopen_views:
+        t0 = time.perf_counter()
+        res.disparity = reopen_gaps(views, warper, reference, res.disparity, config=config, progress=progress)[0]
+        res.index = plane_index(res.disparity, warper.disparities)
+        res.timings["reopen"] = time.perf_counter() - t0
+    if config.colour_reopen:
+        t0 = time.perf_counter()
+        res.disparity = reopen_by_colour(res.disparity, matching_values(views[reference], "srgb", 1.0),
+                                         radius=config.colour_radius, stride=config.colour_stride,
+                                         like=config.colour_like, ratio=config.colour_ratio,
+                                         jump=config.colour_jump)[0]
+        res.index = plane_index(res.disparity, warper.disparities)
+        res.timings["colour reopen"] = time.perf_counter() - t0
     return res
 
 
@@ -1261,6 +1326,78 @@ def refine_edges_reference(prepared, warper, reference: int, disparity: np.ndarr
             elif d[y, x] < mid and cost[front] + n * config.edge_margin < cost[back]:
                 out[y, x], state[y, x] = front, 3
     return out.astype(np.float32), state
+
+
+def colour_offsets(radius: int, stride: int) -> np.ndarray:
+    """The window of :func:`reopen_by_colour`: (dy, dx) on a ``stride`` grid within ``radius``, nearest first."""
+    r = np.arange(-radius, radius + 1, stride)
+    dy, dx = np.meshgrid(r, r, indexing="ij")
+    keep = dy ** 2 + dx ** 2 <= radius ** 2
+    off = np.stack([dy[keep], dx[keep]], axis=1).astype(np.int64)
+    return np.ascontiguousarray(off[np.argsort((off ** 2).sum(axis=1), kind="stable")])
+
+
+def colour_shares_reference(disparity: np.ndarray, colour: np.ndarray, offsets: np.ndarray, like: float,
+                            jump: float) -> tuple[np.ndarray, np.ndarray]:
+    """Plain numpy :func:`vfxstereo._depth_kernels.colour_shares`, the reference its kernel is tested against."""
+    d = np.asarray(disparity, np.float64)
+    c = np.asarray(colour, np.float64)
+    h, w = d.shape
+    target = np.full((h, w), np.nan)
+    counts = np.zeros((h, w, 4), np.int64)
+    for oy, ox in offsets:
+        ys, xs = np.arange(h) + oy, np.arange(w) + ox
+        iy, ix = (ys >= 0) & (ys < h), (xs >= 0) & (xs < w)
+        inside = iy[:, None] & ix[None, :]
+        dq = np.full((h, w), np.nan)
+        dq[np.ix_(iy, ix)] = d[np.ix_(ys[iy], xs[ix])]
+        cq = np.full(c.shape, np.inf)
+        cq[np.ix_(iy, ix)] = c[np.ix_(ys[iy], xs[ix])]
+        alike = inside & (np.abs(cq - c) < like).all(axis=-1)
+        back = inside & (dq < d - jump)
+        same = inside & ~back & (np.abs(dq - d) <= 0.5 * jump)
+        counts[..., 0] += back & alike
+        counts[..., 1] += back
+        counts[..., 2] += same & alike
+        counts[..., 3] += same
+        first = back & alike & np.isnan(target)
+        target[first] = dq[first]
+    return target, counts
+
+
+def reopen_by_colour(disparity: np.ndarray, colour: np.ndarray, *, radius: int = 40, stride: int = 4,
+                     like: float = 0.04, ratio: float = 4.0, jump: float = 1.5) -> tuple[np.ndarray, np.ndarray]:
+    """Move a pixel to the farther surface beside it when its colour belongs there and not to its own surface.
+
+    Over a window of ``radius`` px (sampled every ``stride``): the pixel's colour (every channel within ``like``)
+    must be more than ``ratio`` times as common among the pixels farther than it by more than ``jump`` as among
+    those at its own depth. It then takes the disparity of the nearest farther pixel of its colour -- never a
+    nearer one. Only moves that join a farther surface already in the map are kept: a connected group of moved
+    pixels must border a pixel farther than the group's front by ``jump`` (an island inside a surface would make
+    a new depth edge there that nothing else supports). Returns ``(disparity, moved)``.
+    """
+    from scipy import ndimage
+
+    from vfxstereo import _depth_kernels
+
+    d = np.ascontiguousarray(disparity, np.float32)
+    h, w = d.shape
+    target = np.empty((h, w), np.float32)
+    counts = np.empty((h, w, 4), np.int32)
+    _depth_kernels.colour_shares(d, np.ascontiguousarray(colour, np.float32), colour_offsets(radius, stride),
+                                 np.float32(like), np.float32(jump), target, counts)
+    nb, NB, nf, NF = (counts[..., i].astype(np.float64) for i in range(4))
+    move = (nb > 0) & (nb / np.maximum(NB, 1) > ratio * nf / np.maximum(NF, 1)) & np.isfinite(target)
+    labels, n = ndimage.label(move, structure=np.ones((3, 3), bool))
+    if n:
+        front = ndimage.minimum(d, labels, index=np.arange(1, n + 1))
+        touching = ndimage.maximum_filter(labels, 3)  # a border pixel next to two groups: the later one's label
+        ys, xs = np.nonzero(~move & (touching > 0))
+        group = touching[ys, xs]
+        keep = np.zeros(n + 1, bool)
+        keep[np.unique(group[d[ys, xs] < front[group - 1] - jump])] = True
+        move &= keep[labels]
+    return np.where(move, target, d).astype(np.float32), move
 
 
 def _consistency_offset(warper, reference: int, steps: int | None) -> float | None:
