@@ -683,11 +683,13 @@ def test_colour_shares_kernel_matches_its_numpy_reference(rng):
     assert len(off) == len({tuple(o) for o in off}) and (np.diff((off ** 2).sum(axis=1)) >= 0).all()
     target = np.empty(d.shape, np.float32)
     counts = np.empty(d.shape + (4,), np.int32)
-    _depth_kernels.colour_shares(d, colour, off, np.float32(0.04), np.float32(1.5), target, counts)
+    active = rng.random(d.shape) < 0.8
+    _depth_kernels.colour_shares(d, colour, off, np.float32(0.04), np.float32(1.5), active, target, counts)
     ref_target, ref_counts = depth.colour_shares_reference(d, colour, off, 0.04, 1.5)
     assert counts[..., 0].sum() > 100 and counts[..., 2].sum() > 100  # both kinds of neighbour occur
-    np.testing.assert_array_equal(counts, ref_counts)
-    np.testing.assert_allclose(target, ref_target, equal_nan=True)
+    np.testing.assert_array_equal(counts[active], ref_counts[active])
+    np.testing.assert_allclose(target[active], ref_target[active], equal_nan=True)
+    assert not counts[~active].any() and np.isnan(target[~active]).all()
 
 
 def _fattened_board():

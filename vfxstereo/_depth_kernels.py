@@ -568,12 +568,12 @@ def colour_error(view, ref, gain, u, v, out):
 
 
 @njit(cache=True, parallel=True, nogil=True)
-def colour_shares(disparity, colour, offsets, like, jump, target, counts):
+def colour_shares(disparity, colour, offsets, like, jump, active, target, counts):
     """How common each pixel's colour is among the farther and the same-depth pixels around it.
 
     Over the window ``offsets`` (nearest first): ``counts[y, x]`` = (farther pixels of its colour, farther
     pixels, same-depth pixels of its colour, same-depth pixels); ``target[y, x]``: the disparity of the nearest
-    farther pixel of its colour (NaN: none).
+    farther pixel of its colour (NaN: none). Pixels not ``active`` (nothing farther within reach) get zeros.
 
     Farther: disparity below the pixel's by more than ``jump``; same depth: within ``jump / 2``; of its colour:
     every channel within ``like``. Offsets that leave the frame are skipped.
@@ -588,7 +588,7 @@ def colour_shares(disparity, colour, offsets, like, jump, target, counts):
             nf = 0
             NF = 0
             t = np.float32(np.nan)
-            for i in range(n):
+            for i in range(n if active[y, x] else 0):
                 yy = y + offsets[i, 0]
                 xx = x + offsets[i, 1]
                 if yy < 0 or yy >= H or xx < 0 or xx >= W:

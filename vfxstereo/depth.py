@@ -1384,8 +1384,10 @@ def reopen_by_colour(disparity: np.ndarray, colour: np.ndarray, *, radius: int =
     h, w = d.shape
     target = np.empty((h, w), np.float32)
     counts = np.empty((h, w, 4), np.int32)
+    # only pixels with something farther within reach can move (a square of the window's reach: a superset)
+    active = d - ndimage.minimum_filter(d, 2 * radius + 1, mode="nearest") > jump
     _depth_kernels.colour_shares(d, np.ascontiguousarray(colour, np.float32), colour_offsets(radius, stride),
-                                 np.float32(like), np.float32(jump), target, counts)
+                                 np.float32(like), np.float32(jump), active, target, counts)
     nb, NB, nf, NF = (counts[..., i].astype(np.float64) for i in range(4))
     move = (nb > 0) & (nb / np.maximum(NB, 1) > ratio * nf / np.maximum(NF, 1)) & np.isfinite(target)
     labels, n = ndimage.label(move, structure=np.ones((3, 3), bool))
