@@ -961,19 +961,22 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
     from vfxstereo.layers import plane_index
     from vfxstereo.sweep import matching_values
 
+    changed = False
     if config.reopen and config.reopen_passes > 0 and views.shape[0] - 1 >= config.reopen_views:
         t0 = time.perf_counter()
         res.disparity = reopen_gaps(views, warper, reference, res.disparity, config=config, progress=progress)[0]
-        res.index = plane_index(res.disparity, warper.disparities)
         res.timings["reopen"] = time.perf_counter() - t0
+        changed = True
     if config.colour_reopen:
         t0 = time.perf_counter()
         res.disparity = reopen_by_colour(res.disparity, matching_values(views[reference], "srgb", 1.0),
                                          radius=config.colour_radius, stride=config.colour_stride,
                                          like=config.colour_like, ratio=config.colour_ratio,
                                          jump=config.colour_jump)[0]
-        res.index = plane_index(res.disparity, warper.disparities)
         res.timings["colour reopen"] = time.perf_counter() - t0
+        changed = True
+    if changed:  # the planes of the map the steps left, once
+        res.index = plane_index(res.disparity, warper.disparities)
     return res
 
 
