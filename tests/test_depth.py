@@ -743,3 +743,69 @@ def test_colour_reopening_runs_in_the_stage_by_default_and_its_settings_are_chec
                 {"colour_jump": -1.0}):
         with pytest.raises(VfxStereoError):
             depth.DepthConfig(**bad)
+
+
+def _bars_over_texture(K=5):
+    """Thin grey bars (1.6 px, 30 px apart) at d = 12 over a finely textured wall at d = 1: the census window
+    and the SGM paths give the bars the wall's depth."""
+    from scipy import ndimage
+
+    from vfxstereo import zkey_scenes as zs
+
+    rng = np.random.default_rng(11)
+    cv = (zs.SHAPE[0] // 2 + 2 * zs.MARGIN, zs.SHAPE[1] // 2 + 2 * zs.MARGIN)
+    texture = ndimage.gaussian_filter(rng.uniform(0.05, 0.95, cv + (3,)), (0.7, 0.7, 0)).astype(np.float32)
+    wall = zs.PlanarLayer("wall", zs.opaque(texture), 1.0)
+    bars = zs.PlanarLayer("bars", zs.fence(cv, spacing=30.0, thickness=1.6, angle=-15.0, colour=(0.5, 0.5, 0.52),
+                                           rng=rng), 12.0)
+    positions, reference = zs._rig(K)
+    scene = zs.Scene(name="bars", layers=[wall, bars], positions=positions, reference=reference, margin=zs.MARGIN,
+                     gains=np.ones(K), vignetting=0.0, noise=(0.003, 0.0004), seed=5, description="")
+    views = scene.views()
+    warper = Warper(Camera.from_positions(scene.positions, scene.reference), np.arange(0.0, 14.5, 1.0),
+                    views.shape[1:3])
+    return views, warper, scene.reference, scene.gt_disparity(0.5), scene.gt_disparity(0.95)
+
+
+def test_plane_errors_kernel_matches_its_numpy_reference(rng):
+    views, warper, ref, gt, _ = _bars_over_texture()
+    gains = np.array([[1.0, 1.0, 1.0], [1.02, 0.98, 1.0], [1.0, 1.0, 1.0], [0.97, 1.0, 1.03], [1.0, 1.01, 0.99]],
+                     np.float32)
+    ys = rng.integers(0, gt.shape[0], 300)
+    xs = np.concatenate([rng.integers(0, gt.shape[1], 296), [0, 1, gt.shape[1] - 2, gt.shape[1] - 1]])
+    for jitter, min_views in ((0.0, 1), (0.5, 3), (0.5, 4)):
+        fast = depth.plane_errors(views, warper, ref, ys, xs, gains, jitter=jitter, min_views=min_views)
+        slow = depth.plane_errors_reference(views, warper, ref, ys, xs, gains, jitter=jitter, min_views=min_views)
+        np.testing.assert_array_equal(np.isinf(fast), np.isinf(slow))
+        np.testing.assert_allclose(fast[np.isfinite(fast)], slow[np.isfinite(slow)], rtol=1e-4, atol=1e-6)
+        assert np.isinf(fast).any() == (min_views > 1)  # the frame-edge pixels leave some views at far planes
+
+
+def test_thin_bars_the_window_erased_come_back_and_nothing_else_moves():
+    """Step 11: bars lost to the window are restored where every view sees them; a pair is left alone."""
+    from dataclasses import replace
+
+    from vfxstereo.errors import VfxStereoError
+
+    views, warper, ref, gt, solid = _bars_over_texture()
+    assert depth.DepthConfig().thin
+    off = depth.robust_depth(views, warper, ref, config=replace(depth.DepthConfig(), thin=False)).disparity
+    on = depth.robust_depth(views, warper, ref)
+    bars = solid > 6
+    right = lambda d: float(np.mean(np.abs(d[bars] - gt[bars]) <= 1))  # noqa: E731
+    assert right(off) < 0.05 and right(on.disparity) > 0.1, (right(off), right(on.disparity))
+    moved = on.disparity != off
+    assert np.mean(np.abs(on.disparity[moved] - gt[moved]) <= 1) > 0.9  # what moves goes to the bars' depth
+    assert np.all(on.disparity >= off - 1e-6)  # only nearer
+    wall = gt < 6
+    assert np.mean(on.disparity[wall] > gt[wall] + 1) <= np.mean(off[wall] > gt[wall] + 1)
+    assert "thin" in on.timings
+    # a stereo pair has no view on the other side: nothing moves
+    v2, w2, r2 = views[[2, 3]], Warper(Camera.from_positions(np.array([0.0, 1.0]), 0), warper.disparities,
+                                       views.shape[1:3]), 0
+    d2 = depth.robust_depth(v2, w2, r2, config=replace(depth.DepthConfig(), thin=False)).disparity
+    out, m = depth.recover_thin(v2, w2, r2, d2)
+    assert not m.any() and np.array_equal(out, d2)
+    for bad in ({"thin_views": 0}, {"thin_ratio": 0.0}, {"thin_share": 1.5}, {"thin_size": 0}, {"thin_jump": -1.0}):
+        with pytest.raises(VfxStereoError):
+            depth.DepthConfig(**bad)

@@ -614,3 +614,50 @@ def colour_shares(disparity, colour, offsets, like, jump, active, target, counts
             counts[y, x, 1] = NB
             counts[y, x, 2] = nf
             counts[y, x, 3] = NF
+
+
+@njit(cache=True, parallel=True, nogil=True)
+def plane_errors(views, ref, gains, offsets, ys, xs, disparities, shifts, min_views, out):
+    """``out[i, n]``: how well plane ``i`` explains reference pixel ``n`` in *all* the other views.
+
+    Per view k (``views[k]``, offset ``offsets[k]`` in view steps, rectified: the pixel lands at ``(x - d
+    ox, y - d oy)``): the least over ``disparities[i] + shifts`` of ``|gains[k] I_k(u) - I_ref|^2`` (bilinear),
+    over the shifts that land inside the view; the result is the largest of those over the views, or inf when
+    fewer than ``min_views`` views have one. Plain numpy reference: ``depth.plane_errors_reference``.
+    """
+    N = ys.shape[0]
+    D = disparities.shape[0]
+    K1 = views.shape[0]
+    h, w = views.shape[1], views.shape[2]
+    S = shifts.shape[0]
+    for n in prange(N):
+        y = ys[n]
+        x = xs[n]
+        for i in range(D):
+            worst = 0.0
+            inside = 0
+            for k in range(K1):
+                least = np.inf
+                for j in range(S):
+                    d = disparities[i] + shifts[j]
+                    uu = x - d * offsets[k, 0]
+                    vv = y - d * offsets[k, 1]
+                    if not (uu >= 0.0 and uu <= w - 1.0 and vv >= 0.0 and vv <= h - 1.0):
+                        continue
+                    x0 = min(int(uu), w - 2) if w > 1 else 0
+                    y0 = min(int(vv), h - 2) if h > 1 else 0
+                    fx = uu - x0
+                    fy = vv - y0
+                    x1 = min(x0 + 1, w - 1)
+                    y1 = min(y0 + 1, h - 1)
+                    e = 0.0
+                    for c in range(3):
+                        s = ((1.0 - fy) * ((1.0 - fx) * views[k, y0, x0, c] + fx * views[k, y0, x1, c])
+                             + fy * ((1.0 - fx) * views[k, y1, x0, c] + fx * views[k, y1, x1, c]))
+                        dd = gains[k, c] * s - ref[y, x, c]
+                        e += dd * dd
+                    least = min(least, e)
+                if least < np.inf:
+                    inside += 1
+                    worst = max(worst, least)
+            out[i, n] = worst if inside >= min_views else np.inf

@@ -46,6 +46,12 @@ This stage gives the layered model a dependable front surface instead, from clas
    nearest farther pixel of its colour, where the pixels so moved join a farther surface already in the map:
    the rims and gaps the window of steps 1-3 grew over, and a stereo pair's half-occluded strips, where no view
    can place the pixel and its colour is the only evidence left.
+11. Thin structures (``thin``, :func:`recover_thin`), on the whole plate, with three or more other views on both
+   sides of the reference: a pixel that every other view sees with the plate's colour on a nearer plane, and no
+   view the map says sees its own depth does, takes that plane, in thin or mostly unique groups: a grille's bars,
+   a wire or twigs over a textured background, which the window of steps 1-3 and the median gave the
+   background's depth (the opposite of steps 9 and 10, and only where all the views agree, since nothing hides a
+   near structure from them).
 
 Measured (``benchmarks/middlebury.py``, all 31 sets, one published px apart, the GT's view as reference):
 0.47x OpenCV SGBM's bad pixels on average (9.4 % against 19.5 %), at most 0.88x (Midd1). Per set: tsukuba
@@ -395,6 +401,41 @@ class DepthConfig:
     """How many times more common among the farther surfaces than on its own a pixel's colour must be."""
     colour_jump: float = 1.5
     """Disparity difference (px per view step) that makes a pixel farther; within half of it, the same depth."""
+    thin: bool = True
+    """Step 11 (:func:`recover_thin`), on the whole plate: a thin near structure the window of steps 1-3 and the
+    median erased (a grille's bars or a wire over a textured background, twigs) comes back where, pixel by
+    pixel, every other view sees the plate's colour on a nearer plane and no view that the map says sees the
+    pixel's own depth does. Needs ``thin_views`` other views, on both sides of the reference (a stereo pair's
+    one other view matches some nearer plane by chance almost everywhere: measured, it put 2-4 % of the pixels
+    of hair and toy scenes too near). Measured (session 29, z-key benchmark, frame / band dB): the 230 rows of
+    the 25 tuning scenes 28.67 / 22.32 -> 28.77 / 22.47 (only the K = 5 rows change: shelf_grille +2.9 / +3.5,
+    beanie_grille +0.7 / +1.0, ostrich_grille +0.3 / +0.4, sphere_plant +0.3 / +1.1; no scene worse on
+    average, the worst row -0.44 / -0.49); 93 % of the 7894 pixels it moved went to their true depth (within
+    1 px), a third of the pixels put too far there. Without the both-sides test and the uniqueness test, plain
+    blobs in a fringe matched a nearer plane (tassels_room -3.6 / -4.0, koala_slope -2.2 / -2.3). The four
+    held-out scenes, scored once after: 30.85 / 28.02 -> 30.89 / 28.02 (petals_grille_plastic K = 5 +0.7 / +0.4,
+    leaves_wire_bowling K = 5 -0.4 / -0.3: one row -1.6 / -1.6); all 278 rows 29.04 / 23.31 -> 29.14 / 23.42,
+    rows losing to the SGBM key on the band 15 -> 14. Middlebury's 31 sets, depth alone: 9.39 % bad before and
+    after (tsukuba 3.65 -> 3.61, Art 10.98 -> 10.97, no other set changes). Cost at 1920 x 1080 x 64 planes
+    (K = 5, ``benchmarks/speed.py``): 2.0 s of the depth stage's 24.6 s."""
+    thin_views: int = 3
+    """Other views step 11 needs (and it needs them on both sides of the reference): with fewer it is skipped."""
+    thin_jump: float = 1.5
+    """A candidate plane is nearer than the pixel's disparity by more than this (px per view step)."""
+    thin_ratio: float = 3.0
+    """A pixel moves where its own depth's least error over the views that see it (colour^2) is above this many
+    times the candidate's error in its worst view ..."""
+    thin_floor: float = 0.002
+    """... plus this (the views' noise and resampling)."""
+    thin_unique: float = 2.0
+    """A pixel's candidate is unique where every plane two or more planes from it errs more than this many times
+    as much (plus ``thin_floor``): a plain patch matches a range of planes, a bar one."""
+    thin_share: float = 0.5
+    """A group of moved pixels (8-connected) is kept where at least this share of it is unique, ..."""
+    thin_width: float = 2.0
+    """... or where it is thin: no pixel of it farther than this from its border (px; a bar or a wire)."""
+    thin_size: int = 10
+    """Groups smaller than this (px) are dropped."""
 
     def __post_init__(self):
         if (self.box < 1 or self.paths not in (4, 8) or self.median < 0 or self.visibility_passes < 0
@@ -415,6 +456,11 @@ class DepthConfig:
             raise VfxStereoError(f"SGM needs 0 <= P1 <= P2, got P1={self.P1}, P2={self.P2}")
         if not (self.strip_memory > 0 and self.strip_margin >= 0):
             raise VfxStereoError("depth settings: strip_memory > 0 GiB, strip_margin >= 0 rows")
+        if not (self.thin_views >= 1 and self.thin_jump >= 0 and self.thin_ratio > 0 and self.thin_floor >= 0
+                and self.thin_unique >= 0 and 0 <= self.thin_share <= 1 and self.thin_width >= 0
+                and self.thin_size >= 1):
+            raise VfxStereoError("depth settings: thin_views >= 1, thin_jump, thin_floor, thin_unique, "
+                                 "thin_width >= 0, thin_ratio > 0, 0 <= thin_share <= 1, thin_size >= 1")
         if not (self.colour_radius >= 1 and self.colour_stride >= 1 and self.colour_like > 0
                 and self.colour_ratio > 0 and self.colour_jump >= 0):
             raise VfxStereoError("depth settings: colour_radius, colour_stride >= 1, colour_like, colour_ratio > 0, "
@@ -957,7 +1003,7 @@ def robust_depth(views: np.ndarray, warper, reference: int, *, config: DepthConf
 
 
 def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConfig, progress) -> DepthResult:
-    """``res`` after steps 9 (``config.reopen``; candidates reach 64 px) and 10 (``config.colour_reopen``)."""
+    """``res`` after steps 9 (``config.reopen``; 64 px), 10 (``config.colour_reopen``) and 11 (``config.thin``)."""
     from vfxstereo.layers import plane_index
     from vfxstereo.sweep import matching_values
 
@@ -975,6 +1021,13 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
                                          jump=config.colour_jump)[0]
         res.timings["colour reopen"] = time.perf_counter() - t0
         changed = True
+    if config.thin:
+        t0 = time.perf_counter()
+        thin, moved = recover_thin(views, warper, reference, res.disparity, config=config)
+        if moved.any():
+            res.disparity = thin
+            changed = True
+        res.timings["thin"] = time.perf_counter() - t0
     if changed:  # the planes of the map the steps left, once
         res.index = plane_index(res.disparity, warper.disparities)
     return res
@@ -1404,6 +1457,122 @@ def reopen_by_colour(disparity: np.ndarray, colour: np.ndarray, *, radius: int =
         keep[np.unique(group[d[ys, xs] < front[group - 1] - jump])] = True
         move &= keep[labels]
     return np.where(move, target, d).astype(np.float32), move
+
+
+def recover_thin(views: np.ndarray, warper, reference: int, disparity: np.ndarray, *,
+                 config: DepthConfig | None = None, gains: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Step 11: bring back thin near structures the map lost (``DepthConfig.thin``).
+
+    A grille's bar or a wire a few px wide over a textured background is outvoted in the census window and the
+    SGM paths by the background around it, and the median removes what is left: the map gives it the
+    background's depth, and a z-keyed element between them shows over the bar. Pixel by pixel the views still
+    tell: on the bar's plane *every* other view sees the plate's colour (nothing is in front of a near
+    structure), while at the map's depth none of the views that the map says see that point does.
+
+    For each pixel seen at its own disparity (the map's z-buffers, two plane steps of tolerance) by a view on
+    each side of the reference: ``e_own``, the least over those views of ``|g_k I_k - I_ref|^2`` at its disparity
+    (bilinear, within ``reopen_jitter``; ``g_k`` :func:`vfxstereo.layers.view_gains`); and per plane the
+    *largest* such error over all other views (:func:`plane_errors`). The best plane nearer by ``thin_jump``
+    wins where ``e_own > thin_ratio * best + thin_floor``. Groups of such pixels are kept when they are thin
+    (``thin_width``) or mostly unique (``thin_unique``, ``thin_share``), and not smaller than ``thin_size``.
+    Only rectified rigs with ``thin_views`` other views on both sides; otherwise nothing moves.
+    Returns ``(disparity, moved)``; the input is not modified.
+    """
+    from scipy import ndimage
+
+    from vfxstereo.layers import view_gains
+
+    config = config or DepthConfig()
+    d0 = np.ascontiguousarray(disparity, np.float32)
+    K, h, w = views.shape[:3]
+    moved = np.zeros((h, w), bool)
+    others = [k for k in range(K) if k != reference]
+    side = view_sides(warper.camera, reference)
+    if (warper.shifts(reference) is None or len(others) < config.thin_views
+            or not {-1, 1} <= {side[k] for k in others}):
+        return d0, moved
+    views = np.asarray(views, np.float32)
+    d = np.asarray(warper.disparities, np.float64)
+    step = float(np.median(np.diff(d))) if len(d) > 1 else 1.0
+    gains = view_gains(views, warper, reference, d0) if gains is None else np.asarray(gains, np.float32)
+    errors = patch_errors(views, warper, reference, d0, gains, jitter=config.reopen_jitter, size=1)
+    ys, xs = np.mgrid[0:h, 0:w]
+    seen = np.zeros(errors.shape, bool)
+    for n, k in enumerate(others):
+        u, v = warper.points_to_view(k, xs.ravel().astype(np.float64), ys.ravel().astype(np.float64),
+                                     d0.ravel().astype(np.float64))
+        zb = zbuffer(warper, d0, k)
+        zk = ndimage.map_coordinates(zb, [np.nan_to_num(v), np.nan_to_num(u)], order=0, mode="nearest")
+        seen[n] = (zk <= d0.ravel() + 2.0 * step).reshape(h, w)
+    sides = np.array([side[k] for k in others])
+    both = seen[sides < 0].any(axis=0) & seen[sides > 0].any(axis=0)
+    own = np.where(seen, errors, np.inf).min(axis=0)
+    cand = both & np.isfinite(own) & (own > config.thin_floor)
+    if not cand.any():
+        return d0, moved
+    cy, cx = np.nonzero(cand)
+    per_plane = plane_errors(views, warper, reference, cy, cx, gains, jitter=config.reopen_jitter,
+                             min_views=config.thin_views)
+    near = d[:, None] > d0[cy, cx][None, :] + config.thin_jump
+    best_i = np.where(near, per_plane, np.inf).argmin(axis=0)
+    best = per_plane[best_i, np.arange(len(cy))]
+    far_off = np.abs(np.arange(len(d))[:, None] - best_i[None, :]) >= 2
+    second = np.where(far_off, per_plane, np.inf).min(axis=0)
+    go = np.isfinite(best) & (own[cy, cx] > config.thin_ratio * best + config.thin_floor)
+    unique = np.zeros((h, w), bool)
+    unique[cy, cx] = go & (second > config.thin_unique * best + config.thin_floor)
+    moved[cy[go], cx[go]] = True
+    labels, n = ndimage.label(moved, structure=np.ones((3, 3), bool))
+    if n == 0:
+        return d0, moved
+    size = np.bincount(labels.ravel(), minlength=n + 1)
+    width = np.asarray(ndimage.maximum(ndimage.distance_transform_edt(moved), labels, np.arange(n + 1)))
+    keep = (size >= config.thin_size) & ((np.bincount(labels.ravel(), unique.ravel(), minlength=n + 1)
+                                          >= config.thin_share * size) | (width <= config.thin_width))
+    keep[0] = False
+    moved = keep[labels]
+    target = np.full((h, w), np.nan, np.float32)
+    target[cy, cx] = d[best_i]
+    return np.where(moved, target, d0).astype(np.float32), moved
+
+
+def plane_errors(views: np.ndarray, warper, reference: int, ys: np.ndarray, xs: np.ndarray, gains: np.ndarray,
+                 *, jitter: float = 0.0, min_views: int = 1) -> np.ndarray:
+    """(D, N) how well each plane explains reference pixels ``(ys, xs)`` in all the other views (step 11).
+
+    Per view: ``|g_k I_k(u) - I_ref|^2`` with ``u`` where the plane puts the pixel in view k (bilinear), the
+    least over the plane's disparity within +- ``jitter`` (:data:`JITTER_STEPS` samples) that lands inside the
+    view; per plane, the largest of those over the views, inf where fewer than ``min_views`` views have one.
+    Rectified rigs only (a numba kernel; :func:`plane_errors_reference` is its plain numpy reference).
+    """
+    from vfxstereo import _depth_kernels
+
+    if warper.shifts(reference) is None:
+        raise VfxStereoError("plane_errors: rectified rigs only")
+    K = views.shape[0]
+    others = [k for k in range(K) if k != reference]
+    offsets = np.array([warper.camera.view_offset(k) for k in others], np.float64).reshape(len(others), 2)
+    shifts = np.linspace(-jitter, jitter, JITTER_STEPS) if jitter > 0 else np.zeros(1)
+    out = np.empty((warper.D, len(ys)), np.float32)
+    _depth_kernels.plane_errors(np.ascontiguousarray(np.asarray(views, np.float32)[others]),
+                                np.ascontiguousarray(views[reference], np.float32),
+                                np.ascontiguousarray(np.asarray(gains, np.float32)[others]), offsets,
+                                np.asarray(ys, np.int64), np.asarray(xs, np.int64),
+                                np.asarray(warper.disparities, np.float64), shifts, int(min_views), out)
+    return out
+
+
+def plane_errors_reference(views: np.ndarray, warper, reference: int, ys: np.ndarray, xs: np.ndarray,
+                           gains: np.ndarray, *, jitter: float = 0.0, min_views: int = 1) -> np.ndarray:
+    """Plain numpy :func:`plane_errors`: :func:`patch_errors` of a constant map per plane (whole plate)."""
+    h, w = views.shape[1:3]
+    out = np.empty((warper.D, len(ys)), np.float32)
+    for i, di in enumerate(warper.disparities):
+        e = patch_errors(views, warper, reference, np.full((h, w), di, np.float32), gains, jitter=jitter, size=1)
+        e = e[:, ys, xs]
+        fin = np.isfinite(e)
+        out[i] = np.where(fin.sum(axis=0) >= min_views, np.where(fin, e, 0.0).max(axis=0), np.inf)
+    return out
 
 
 def _consistency_offset(warper, reference: int, steps: int | None) -> float | None:
