@@ -531,6 +531,25 @@ def edge_refine(disparity, r, jump, cref, vref, cviews, vviews, offsets, zbufs, 
 # Reopening filled gaps: a view's colour at each reference pixel's own disparity
 
 
+@njit(cache=True, inline="always")
+def _bilinear_error(view, uu, vv, gain, ref, y, x):
+    """``|gain * view(uu, vv) - ref[y, x]|^2``, the view sampled bilinearly at ``(uu, vv)`` (inside it)."""
+    h, w = view.shape[0], view.shape[1]
+    x0 = min(int(uu), w - 2) if w > 1 else 0
+    y0 = min(int(vv), h - 2) if h > 1 else 0
+    fx = uu - x0
+    fy = vv - y0
+    x1 = min(x0 + 1, w - 1)
+    y1 = min(y0 + 1, h - 1)
+    e = 0.0
+    for c in range(3):
+        s = ((1.0 - fy) * ((1.0 - fx) * view[y0, x0, c] + fx * view[y0, x1, c])
+             + fy * ((1.0 - fx) * view[y1, x0, c] + fx * view[y1, x1, c]))
+        dd = gain[c] * s - ref[y, x, c]
+        e += dd * dd
+    return e
+
+
 @njit(cache=True, parallel=True, nogil=True)
 def colour_error(view, ref, gain, u, v, out):
     """``|gain * view(u, v) - ref|^2`` per reference pixel, the view sampled bilinearly at ``(u, v)``.
@@ -546,21 +565,8 @@ def colour_error(view, ref, gain, u, v, out):
             if not (uu == uu and vv == vv):
                 uu = 0.0
                 vv = 0.0
-            uu = min(max(uu, 0.0), w - 1.0)
-            vv = min(max(vv, 0.0), h - 1.0)
-            x0 = min(int(uu), w - 2) if w > 1 else 0
-            y0 = min(int(vv), h - 2) if h > 1 else 0
-            fx = uu - x0
-            fy = vv - y0
-            x1 = min(x0 + 1, w - 1)
-            y1 = min(y0 + 1, h - 1)
-            e = 0.0
-            for c in range(3):
-                s = ((1.0 - fy) * ((1.0 - fx) * view[y0, x0, c] + fx * view[y0, x1, c])
-                     + fy * ((1.0 - fx) * view[y1, x0, c] + fx * view[y1, x1, c]))
-                dd = gain[c] * s - ref[y, x, c]
-                e += dd * dd
-            out[y, x] = e
+            out[y, x] = _bilinear_error(view, min(max(uu, 0.0), w - 1.0), min(max(vv, 0.0), h - 1.0), gain,
+                                        ref, y, x)
 
 
 # --------------------------------------------------------------------------------------------------------
@@ -644,19 +650,7 @@ def plane_errors(views, ref, gains, offsets, ys, xs, disparities, shifts, min_vi
                     vv = y - d * offsets[k, 1]
                     if not (uu >= 0.0 and uu <= w - 1.0 and vv >= 0.0 and vv <= h - 1.0):
                         continue
-                    x0 = min(int(uu), w - 2) if w > 1 else 0
-                    y0 = min(int(vv), h - 2) if h > 1 else 0
-                    fx = uu - x0
-                    fy = vv - y0
-                    x1 = min(x0 + 1, w - 1)
-                    y1 = min(y0 + 1, h - 1)
-                    e = 0.0
-                    for c in range(3):
-                        s = ((1.0 - fy) * ((1.0 - fx) * views[k, y0, x0, c] + fx * views[k, y0, x1, c])
-                             + fy * ((1.0 - fx) * views[k, y1, x0, c] + fx * views[k, y1, x1, c]))
-                        dd = gains[k, c] * s - ref[y, x, c]
-                        e += dd * dd
-                    least = min(least, e)
+                    least = min(least, _bilinear_error(views[k], uu, vv, gains[k], ref, y, x))
                 if least < np.inf:
                     inside += 1
                     worst = max(worst, least)
