@@ -781,7 +781,7 @@ def test_plane_errors_kernel_matches_its_numpy_reference(rng):
         assert np.isinf(fast).any() == (min_views > 1)  # the frame-edge pixels leave some views at far planes
 
 
-def test_thin_bars_the_window_erased_come_back_and_nothing_else_moves():
+def test_thin_bars_the_window_erased_come_back_and_nothing_else_moves(monkeypatch):
     """Step 11: bars lost to the window are restored where every view sees them; a pair is left alone."""
     from dataclasses import replace
 
@@ -800,6 +800,8 @@ def test_thin_bars_the_window_erased_come_back_and_nothing_else_moves():
     wall = gt < 6
     assert np.mean(on.disparity[wall] > gt[wall] + 1) <= np.mean(off[wall] > gt[wall] + 1)
     assert "thin" in on.timings
+    monkeypatch.setattr(depth, "THIN_CHUNK", 97)  # the candidates scored a chunk at a time: the same map
+    np.testing.assert_array_equal(depth.recover_thin(views, warper, ref, off)[0], on.disparity)
     # a stereo pair has no view on the other side: nothing moves
     v2, w2, r2 = views[[2, 3]], Warper(Camera.from_positions(np.array([0.0, 1.0]), 0), warper.disparities,
                                        views.shape[1:3]), 0

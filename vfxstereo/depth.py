@@ -1459,6 +1459,10 @@ def reopen_by_colour(disparity: np.ndarray, colour: np.ndarray, *, radius: int =
     return np.where(move, target, d).astype(np.float32), move
 
 
+THIN_CHUNK = 65536
+"""Candidate pixels :func:`recover_thin` scores at a time (their errors on every plane: D x 256 KiB)."""
+
+
 def recover_thin(views: np.ndarray, warper, reference: int, disparity: np.ndarray, *,
                  config: DepthConfig | None = None, gains: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Step 11: bring back thin near structures the map lost (``DepthConfig.thin``).
@@ -1511,17 +1515,20 @@ def recover_thin(views: np.ndarray, warper, reference: int, disparity: np.ndarra
     if not cand.any():
         return d0, moved
     cy, cx = np.nonzero(cand)
-    per_plane = plane_errors(views, warper, reference, cy, cx, gains, jitter=config.reopen_jitter,
-                             min_views=config.thin_views)
-    near = d[:, None] > d0[cy, cx][None, :] + config.thin_jump
-    best_i = np.where(near, per_plane, np.inf).argmin(axis=0)
-    best = per_plane[best_i, np.arange(len(cy))]
-    far_off = np.abs(np.arange(len(d))[:, None] - best_i[None, :]) >= 2
-    second = np.where(far_off, per_plane, np.inf).min(axis=0)
-    go = np.isfinite(best) & (own[cy, cx] > config.thin_ratio * best + config.thin_floor)
+    best_i = np.empty(len(cy), np.int64)
     unique = np.zeros((h, w), bool)
-    unique[cy, cx] = go & (second > config.thin_unique * best + config.thin_floor)
-    moved[cy[go], cx[go]] = True
+    planes = np.arange(len(d))[:, None]
+    for a in range(0, len(cy), THIN_CHUNK):  # (D, chunk) errors at a time: bounded memory at 4K x 128 planes
+        y, x = cy[a:a + THIN_CHUNK], cx[a:a + THIN_CHUNK]
+        per_plane = plane_errors(views, warper, reference, y, x, gains, jitter=config.reopen_jitter,
+                                 min_views=config.thin_views)
+        bi = np.where(d[:, None] > d0[y, x][None, :] + config.thin_jump, per_plane, np.inf).argmin(axis=0)
+        best = per_plane[bi, np.arange(len(y))]
+        second = np.where(np.abs(planes - bi[None, :]) >= 2, per_plane, np.inf).min(axis=0)
+        go = np.isfinite(best) & (own[y, x] > config.thin_ratio * best + config.thin_floor)
+        unique[y, x] = go & (second > config.thin_unique * best + config.thin_floor)
+        moved[y[go], x[go]] = True
+        best_i[a:a + THIN_CHUNK] = bi
     labels, n = ndimage.label(moved, structure=np.ones((3, 3), bool))
     if n == 0:
         return d0, moved
