@@ -623,26 +623,26 @@ def colour_shares(disparity, colour, offsets, like, jump, active, target, counts
 
 
 @njit(cache=True, parallel=True, nogil=True)
-def plane_errors(views, ref, gains, offsets, ys, xs, disparities, shifts, min_views, out):
+def plane_errors(views, reference, others, gains, offsets, ys, xs, disparities, shifts, min_views, out):
     """``out[i, n]``: how well plane ``i`` explains reference pixel ``n`` in *all* the other views.
 
-    Per view k (``views[k]``, offset ``offsets[k]`` in view steps, rectified: the pixel lands at ``(x - d
-    ox, y - d oy)``): the least over ``disparities[i] + shifts`` of ``|gains[k] I_k(u) - I_ref|^2`` (bilinear),
-    over the shifts that land inside the view; the result is the largest of those over the views, or inf when
-    fewer than ``min_views`` views have one. Plain numpy reference: ``depth.plane_errors_reference``.
+    Per view k in ``others`` (``views[k]``, offset ``offsets[k]`` in view steps, rectified: the pixel lands at
+    ``(x - d ox, y - d oy)``): the least over ``disparities[i] + shifts`` of ``|gains[k] I_k(u) - I_ref|^2``
+    (bilinear), over the shifts that land inside the view; the result is the largest of those over the views,
+    or inf when fewer than ``min_views`` views have one. Plain numpy reference: ``depth.plane_errors_reference``.
     """
     N = ys.shape[0]
     D = disparities.shape[0]
-    K1 = views.shape[0]
     h, w = views.shape[1], views.shape[2]
     S = shifts.shape[0]
+    ref = views[reference]
     for n in prange(N):
         y = ys[n]
         x = xs[n]
         for i in range(D):
             worst = 0.0
             inside = 0
-            for k in range(K1):
+            for k in others:
                 least = np.inf
                 for j in range(S):
                     d = disparities[i] + shifts[j]
