@@ -416,9 +416,10 @@ class DepthConfig:
     held-out scenes, scored once after: 30.85 / 28.02 -> 30.89 / 28.02 (petals_grille_plastic K = 5 +0.7 / +0.4,
     leaves_wire_bowling K = 5 -0.4 / -0.3: one row -1.6 / -1.6); all 278 rows 29.04 / 23.31 -> 29.14 / 23.42,
     rows losing to the SGBM key on the band 15 -> 14. Middlebury's 31 sets, depth alone: 9.39 % bad before and
-    after (tsukuba 3.65 -> 3.61, Art 10.98 -> 10.97, no other set changes). Cost at 1920 x 1080 x 64 planes
-    (K = 5, ``benchmarks/speed.py``): 2.0 s of the depth stage's 24.6 s; at 4096 x 2160 x 64, 13.7 s of 109.7 s
-    (the solve's peak 6.7 GiB, within its estimate of 13.0)."""
+    after (tsukuba 3.65 -> 3.61, Art 10.98 -> 10.97, no other set changes). Cost (K = 5, ``benchmarks/speed.py``,
+    the step against the rest of the depth stage in the same run): 8 % of the stage at 1920 x 1080 x 64 planes
+    (2.5 of 32.1 s), 10 % at 4096 x 2160 x 64 (11.6 of 115.6 s; the solve's peak 6.7 GiB, within its estimate
+    of 13.0)."""
     thin_views: int = 3
     """Other views step 11 needs (and it needs them on both sides of the reference): with fewer it is skipped."""
     thin_jump: float = 1.5
