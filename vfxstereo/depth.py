@@ -46,8 +46,8 @@ This stage gives the layered model a dependable front surface instead, from clas
    nearest farther pixel of its colour, where the pixels so moved join a farther surface already in the map:
    the rims and gaps the window of steps 1-3 grew over, and a stereo pair's half-occluded strips, where no view
    can place the pixel and its colour is the only evidence left.
-11. Thin structures (``thin``, :func:`recover_thin`), on the whole plate, with three or more other views on both
-   sides of the reference: a pixel that every other view sees with the plate's colour on a nearer plane, and no
+11. Thin structures (``thin``, :func:`recover_thin`), on the whole plate, with three or more other views, some on
+   each side of the reference: a pixel that every other view sees with the plate's colour on a nearer plane, and no
    view the map says sees its own depth does, takes that plane, in thin or mostly unique groups: a grille's bars,
    a wire or twigs over a textured background, which the window of steps 1-3 and the median gave the
    background's depth (the opposite of steps 9 and 10, and only where all the views agree, since nothing hides a
