@@ -1502,14 +1502,12 @@ def recover_thin(views: np.ndarray, warper, reference: int, disparity: np.ndarra
     step = float(np.median(np.diff(d))) if len(d) > 1 else 1.0
     gains = view_gains(views, warper, reference, d0) if gains is None else np.asarray(gains, np.float32)
     errors = patch_errors(views, warper, reference, d0, gains, jitter=config.reopen_jitter, size=1)
-    ys, xs = np.mgrid[0:h, 0:w]
     seen = np.zeros(errors.shape, bool)
-    for n, k in enumerate(others):
-        u, v = warper.points_to_view(k, xs.ravel().astype(np.float64), ys.ravel().astype(np.float64),
-                                     d0.ravel().astype(np.float64))
-        zb = zbuffer(warper, d0, k)
+    for n, k in enumerate(others):  # the z-buffer's own projection of the map says where each pixel lands
+        u, v = warper.project(d0, k)
+        zb = zbuffer(warper, d0, k, uv=(u, v))
         zk = ndimage.map_coordinates(zb, [np.nan_to_num(v), np.nan_to_num(u)], order=0, mode="nearest")
-        seen[n] = (zk <= d0.ravel() + 2.0 * step).reshape(h, w)
+        seen[n] = zk <= d0 + 2.0 * step
     sides = np.array([side[k] for k in others])
     both = seen[sides < 0].any(axis=0) & seen[sides > 0].any(axis=0)
     own = np.where(seen, errors, np.inf).min(axis=0)
