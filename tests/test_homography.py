@@ -160,3 +160,13 @@ def test_errors_are_vfxstereo_errors():
         warps.to_plane(np.zeros((7, 8)), 0, 0)
     with pytest.raises(VfxStereoError):
         HomographyWarps(Camera.from_positions([0.0, 1.0]), np.array([1.0]), (8, 8))
+
+
+def test_plane_step_is_the_median_gap_so_one_uneven_plane_does_not_move_it():
+    from vfxstereo.warp import plane_step
+
+    assert plane_step(np.arange(0.0, 16.5, 0.5)) == 0.5
+    assert plane_step([0.0, 1.0, 2.0, 3.0, 10.0]) == 1.0  # the mean gap would be 2.5
+    assert plane_step([4.0]) == 1.0
+    w = Warper(Camera.from_positions(np.array([0.0, 1.0]), 0), np.array([0.0, 2.0, 4.0, 5.0]), (8, 8))
+    assert w.step == 2.0

@@ -1040,7 +1040,7 @@ def _robust_depth(views, warper, reference, config, progress, keep_volume) -> De
     K, h, w = views.shape[:3]
     D = warper.D
     d = warper.disparities
-    step = float(np.median(np.diff(d))) if D > 1 else 1.0
+    step = warper.step
     timings: dict[str, float] = {}
 
     def timed(name, t0):
@@ -1291,7 +1291,7 @@ def _edge_inputs(prepared, warper, reference: int, disparity: np.ndarray, config
     params = matching.MatchingParams(census_radius=config.edge_census_radius,
                                      lambda_census=config.edge_lambda_census,
                                      lambda_ad=config.matching.lambda_ad, w_ad=config.matching.w_ad)
-    step = float(np.median(np.diff(warper.disparities))) if warper.D > 1 else 1.0
+    step = warper.step
     return others, codes, offsets, zbufs, params, config.visibility_tolerance * step
 
 
@@ -1499,7 +1499,7 @@ def recover_thin(views: np.ndarray, warper, reference: int, disparity: np.ndarra
         return d0, moved
     views = np.asarray(views, np.float32)
     d = np.asarray(warper.disparities, np.float64)
-    step = float(np.median(np.diff(d))) if len(d) > 1 else 1.0
+    step = warper.step
     gains = view_gains(views, warper, reference, d0) if gains is None else np.asarray(gains, np.float32)
     errors = patch_errors(views, warper, reference, d0, gains, jitter=config.reopen_jitter, size=1)
     seen = np.zeros(errors.shape, bool)

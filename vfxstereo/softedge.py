@@ -48,6 +48,7 @@ from scipy import ndimage
 
 from vfxstereo.errors import VfxStereoError
 from vfxstereo.progress import Progress, report
+from vfxstereo.warp import plane_step
 
 FILL_SIGMA = 3.0
 """Default smoothing (px) of the background filled in where no view sees it (:func:`fill_colour`)."""
@@ -432,7 +433,7 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     D = len(d)
     held = np.arange(D) if planes is None else np.asarray(planes, np.int64)
     slot = slots(planes, D)
-    step = _step(d)
+    step = plane_step(d)
     tol = 2.0 * step if tolerance is None else float(tolerance)
     jump = _jump_planes(p, d)
     size = 2 * p.radius + 1
@@ -794,14 +795,9 @@ def relabel(disparity: np.ndarray, index: np.ndarray, info: SoftEdges, dispariti
     return disparity, index, n
 
 
-def _step(disparities: np.ndarray) -> float:
-    """The planes' spacing (1 for a single plane)."""
-    return float(np.median(np.diff(disparities))) if len(disparities) > 1 else 1.0
-
-
 def _jump_planes(p: SoftEdgeParams, disparities: np.ndarray) -> int:
     """``p.jump`` (px per view step) in planes: the smallest plane difference that makes an edge."""
-    return max(1, int(np.ceil(p.jump / _step(disparities) - 1e-9)))
+    return max(1, int(np.ceil(p.jump / plane_step(disparities) - 1e-9)))
 
 
 def _edges(index: np.ndarray, jump: int) -> np.ndarray:

@@ -56,6 +56,11 @@ class Warper:
         """Number of planes."""
         return len(self.disparities)
 
+    @property
+    def step(self) -> float:
+        """The planes' spacing (:func:`plane_step`)."""
+        return plane_step(self.disparities)
+
     def to_plane(self, image: np.ndarray, k: int, i: int) -> np.ndarray:
         """W_f (Eq. 1): view ``k`` resampled onto plane ``i``; zero where the plane cell falls outside."""
         if self._general is not None:
@@ -161,6 +166,15 @@ class Warper:
             ones = np.ones(self.shape, dtype=np.float32)
             self._coverage[key] = self.to_plane(ones, k, i)
         return self._coverage[key]
+
+
+def plane_step(disparities) -> float:
+    """The planes' spacing in disparity: the median gap between neighbouring planes (1 for a single plane).
+
+    Tolerances and jumps given "in plane steps" (depth, soft edges) are multiples of it.
+    """
+    d = np.asarray(disparities, np.float64).reshape(-1)
+    return float(np.median(np.diff(d))) if len(d) > 1 else 1.0
 
 
 def _dehomogenise(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
