@@ -14,7 +14,8 @@ Rows per (scene, K) and per pass, and a summary by K x plain/textured x pass. On
 configuration's depth and passes are run (``--preset``). It reads no held-out scene unless asked
 (``--scenes`` or ``--all``): a held-out scene looked at here no longer counts as untouched.
 
-Run ``python benchmarks/softedge_passes.py [--scenes a b] [--all] [--K 5 2] [--preset robust]``.
+Run ``python benchmarks/softedge_passes.py [--scenes a b] [--all] [--K 5 2] [--preset robust]
+[--depth-cache DIR]``.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from __future__ import annotations
 import argparse
 import sys
 from collections import defaultdict
+from pathlib import Path
 
 import common  # benchmarks/ is on sys.path when run as a script
 import numpy as np
@@ -32,8 +34,11 @@ from vfxstereo import SolveConfig, layers, softedge, solve
 from vfxstereo import zkey_scenes as scenes
 
 
-def trace(name: str, K: int, preset: str) -> list[dict]:
-    """One record per pass: pixels moved, of them off a solid surface, by plain / textured background."""
+def trace(name: str, K: int, preset: str, depth_cache=None) -> list[dict]:
+    """One record per pass: pixels moved, of them off a solid surface, by plain / textured background.
+
+    ``depth_cache``: the folder of stored depth maps ``zkey_scenes.py --depth-cache`` uses (read, and filled
+    where a map is missing), so that tracing the passes does not solve the depth again."""
     scene = bench.build_scene(name, K)
     config = SolveConfig.preset(preset)
     solid = scene.gt_disparity(0.95)
@@ -55,8 +60,11 @@ def trace(name: str, K: int, preset: str) -> list[dict]:
                             "off_solid": int(wrong.sum()), "far": int((m & (far > 8)).sum()),
                             "far_off_solid": int((wrong & (far > 8)).sum())})
 
-    solve(scene.views(), positions=scene.positions, reference=scene.reference, disparities=bench.PLANES,
-          config=config, on_soft_pass=on_pass)
+    def solve_it(disparity):
+        return solve(scene.views(), positions=scene.positions, reference=scene.reference, disparities=bench.PLANES,
+                     config=config, on_soft_pass=on_pass, return_details=True, disparity=disparity)
+
+    bench.solve_cached(solve_it, depth_cache, name, K, config)
     return records
 
 
@@ -85,7 +93,8 @@ def tables(records: list[dict], title: str) -> str:
     return out
 
 
-def run(*, names=None, Ks=(5, 2), preset: str = "robust", every: bool = False, quick: bool = False) -> str:
+def run(*, names=None, Ks=(5, 2), preset: str = "robust", every: bool = False, quick: bool = False,
+        depth_cache=None) -> str:
     """The tables (``make bench``: the tuning scenes; ``quick``: two of them at K = 5)."""
     if quick:
         names, Ks = names or ["fur_grey_wall", "trolls_art"], (5,)
@@ -96,7 +105,7 @@ def run(*, names=None, Ks=(5, 2), preset: str = "robust", every: bool = False, q
     records = []
     for name in names:
         for K in Ks:
-            records += trace(name, K, preset)
+            records += trace(name, K, preset, depth_cache)
             print(f"  {name} K={K}", file=sys.stderr, flush=True)
     return tables(records, f"Soft-edge passes: what they move ({preset}, {common.machine_line()})")
 
@@ -107,8 +116,10 @@ def main(argv=None) -> int:
     p.add_argument("--all", action="store_true", help="every scene, the held-out ones too")
     p.add_argument("--K", nargs="*", type=int, default=[5, 2])
     p.add_argument("--preset", default="robust")
+    p.add_argument("--depth-cache", type=Path, default=None, metavar="DIR",
+                   help="stored depth maps, shared with zkey_scenes.py --depth-cache (filled where missing)")
     a = p.parse_args(argv)
-    text = run(names=a.scenes, Ks=tuple(a.K), preset=a.preset, every=a.all)
+    text = run(names=a.scenes, Ks=tuple(a.K), preset=a.preset, every=a.all, depth_cache=a.depth_cache)
     print(text)
     (common.out_dir() / "softedge_passes.md").write_text(text)
     return 0

@@ -151,6 +151,20 @@ def _depth_path(cache: Path, name: str, K: int, config: SolveConfig) -> Path:
     return cache / f"{name}_K{K}_{key.hexdigest()[:16]}.npy"
 
 
+def solve_cached(solve_it, depth_cache: Path | None, name: str, K: int, config: SolveConfig):
+    """``solve_it(disparity)`` (a solve with ``return_details=True``) from the depth map kept in ``depth_cache``
+    for this scene, rig and depth code, or from scratch (``disparity=None``), keeping its map there for next time:
+    the later stages can then be tuned and traced on stored depth maps. No cache, or a depth stage other than
+    "robust": always from scratch."""
+    cached = _depth_path(depth_cache, name, K, config) if depth_cache and config.depth == "robust" else None
+    res = solve_it(np.load(cached) if cached is not None and cached.is_file() else None)
+    if cached is not None and not cached.is_file():
+        cached.parent.mkdir(parents=True, exist_ok=True)
+        np.save(cached.with_suffix(".tmp.npy"), res.disparity)
+        cached.with_suffix(".tmp.npy").replace(cached)
+    return res
+
+
 def run_scene(name: str, K: int, preset: str, *, figures: bool = True, overrides: dict | None = None,
               depth_cache: Path | None = None, true_depth: bool = False) -> list[dict]:
     """Solve one scene with one rig size and score every element; one row per element.
@@ -168,13 +182,8 @@ def run_scene(name: str, K: int, preset: str, *, figures: bool = True, overrides
         return solve(views, positions=scene.positions, reference=scene.reference, disparities=PLANES,
                      config=config, return_details=True, keep_initial=True, disparity=disparity)
 
-    cached = _depth_path(depth_cache, name, K, config) if depth_cache and config.depth == "robust" else None
     with common.Stopwatch() as sw:
-        res = solve_it(np.load(cached) if cached is not None and cached.is_file() else None)
-    if cached is not None and not cached.is_file():  # the soft edges can then be tuned on stored depth maps
-        cached.parent.mkdir(parents=True, exist_ok=True)
-        np.save(cached.with_suffix(".tmp.npy"), res.disparity)
-        cached.with_suffix(".tmp.npy").replace(cached)
+        res = solve_cached(solve_it, depth_cache, name, K, config)
     stack = res.stack
     initial = LayerStack(res.initial, stack.disparities, stack.camera, white=stack.white, plate=plate)
     right = scene.reference + 1

@@ -28,10 +28,13 @@ def test_the_tables_add_up_moves_per_scene_and_per_pass():
 
 
 @pytest.mark.data
-def test_a_fattened_rim_over_a_plain_wall_moves_and_leaves_no_solid_surface(shared_data):
+def test_a_fattened_rim_over_a_plain_wall_moves_and_leaves_no_solid_surface(shared_data, tmp_path):
     """fur_grey_wall at K = 5 (a tuning scene): the passes move thousands of pixels, almost none off the solid
-    fur or rabbit, almost all over the plain wall."""
-    recs = passes.trace("fur_grey_wall", 5, "robust")
+    fur or rabbit, almost all over the plain wall. Traced again from the depth map the first trace stored in
+    ``--depth-cache``, the passes move exactly the same pixels."""
+    recs = passes.trace("fur_grey_wall", 5, "robust", tmp_path)
+    assert len(list(tmp_path.glob("fur_grey_wall_K5_*.npy"))) == 1
+    assert passes.trace("fur_grey_wall", 5, "robust", tmp_path) == recs
     moved = sum(r["moved"] for r in recs)
     off = sum(r["off_solid"] for r in recs)
     plain = sum(r["moved"] for r in recs if r["background"] == "plain")
