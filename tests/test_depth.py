@@ -737,6 +737,7 @@ def test_colour_reopening_runs_in_the_stage_by_default_and_its_settings_are_chec
     on = depth.robust_depth(views, warper, ref)
     off = depth.robust_depth(views, warper, ref, config=replace(depth.DepthConfig(), colour_reopen=False))
     assert "colour reopen" in on.timings and "colour reopen" not in off.timings
+    assert "join" in on.timings  # step 12 runs after it by default
     assert np.all(on.disparity <= off.disparity)
     np.testing.assert_array_equal(on.index, plane_index(on.disparity, warper.disparities))
     for bad in ({"colour_radius": 0}, {"colour_stride": 0}, {"colour_like": 0.0}, {"colour_ratio": 0.0},
@@ -811,3 +812,98 @@ def test_thin_bars_the_window_erased_come_back_and_nothing_else_moves(monkeypatc
     for bad in ({"thin_views": 0}, {"thin_ratio": 0.0}, {"thin_share": 1.5}, {"thin_size": 0}, {"thin_jump": -1.0}):
         with pytest.raises(VfxStereoError):
             depth.DepthConfig(**bad)
+
+
+def _plain_wall_with_a_grown_strip(rng):
+    """(disparity, colour) of a plain wall (colour A, d = 2, textured at its left end, where texture supports its
+    depth) with a textured subject at d = 12 whose depth grew 26 px into the plain wall beside it (the strip),
+    and three things the step must leave: a plain board of another colour at d = 12, a plain board of the wall's
+    colour at d = 9 framed by a textured border, and, behind a textured column, a plain region of the wall's
+    colour at d = 5 beside one at d = 0 that no texture supports."""
+    h, w = 64, 140
+    A = np.array([0.70, 0.68, 0.60], np.float32)
+    colour = np.broadcast_to(A, (h, w, 3)).copy()
+    d = np.full((h, w), 2.0, np.float32)
+    colour[:, :16] = rng.uniform(0.1, 0.9, (h, 16, 3))  # the wall's texture
+    colour[:, 48:64] = rng.uniform(0.1, 0.9, (h, 16, 3))  # the subject
+    d[:, 22:64] = 12.0  # the subject and the strip its depth grew into
+    colour[20:44, 70:90] = (0.2, 0.3, 0.5)  # the board of another colour
+    d[20:44, 70:90] = 12.0
+    colour[8:30, 94:106] = rng.uniform(0.1, 0.9, (22, 12, 3))  # the framed board: texture, then plain A inside
+    colour[11:27, 97:103] = A
+    d[8:30, 94:106] = 9.0
+    colour[:, 110:113] = rng.uniform(0.1, 0.9, (h, 3, 3))  # the textured column
+    d[:, 113:] = 5.0
+    d[:32, 124:] = 0.0  # unsupported: no texture within reach at d = 0
+    return d, colour, A
+
+
+def test_plain_join_gives_a_grown_strip_the_walls_depth_and_moves_nothing_else(rng):
+    d, colour, _ = _plain_wall_with_a_grown_strip(rng)
+    out, moved = depth.join_plain(d, colour, anchor=8)
+    strip = np.zeros(d.shape, bool)
+    strip[:, 22:48] = True
+    strip &= depth.local_deviation(colour.mean(axis=-1) * 255.0, 5) < 3.0  # the strip's plain pixels
+    assert strip.sum() > 0.9 * 64 * 24
+    np.testing.assert_array_equal(out[strip], 2.0)
+    np.testing.assert_array_equal(moved, strip)  # the boards, the subject and the d = 5 / d = 0 pair stay
+    assert np.all(out <= d)
+    # the d = 0 region is a source where texture at its depth supports it: then the plain d = 5 region joins it
+    colour2 = colour.copy()
+    colour2[24:28, 124:] = rng.uniform(0.1, 0.9, (4, 16, 3))
+    out2, moved2 = depth.join_plain(d, colour2, anchor=8)
+    assert np.all(out2[34:, 126:] == 0.0) and moved2[34:, 126:].all()
+    assert np.array_equal(moved2[:, :110], moved[:, :110])
+
+
+def test_plain_join_kernel_matches_its_numpy_reference(rng):
+    d, colour, A = _plain_wall_with_a_grown_strip(rng)
+    flat = depth.local_deviation(colour.mean(axis=-1) * 255.0, 5) < 3.0
+    source = depth.anchored(d, ~flat, 8) & flat
+    ref = depth.join_plain_reference(d, colour, flat, source, 0.04, 1.5)
+    np.testing.assert_array_equal(depth.join_plain(d, colour, anchor=8)[0], ref.astype(np.float32))
+    # random depths over one plain colour, random sources: the flood's colours never compete
+    for _ in range(3):
+        dr = rng.integers(0, 16, (40, 50)).astype(np.float32)
+        fl = rng.uniform(size=dr.shape) < 0.8
+        src = rng.uniform(size=dr.shape) < 0.05
+        col = np.broadcast_to(A, dr.shape + (3,)).astype(np.float32).copy()
+        col += rng.uniform(-0.03, 0.03, col.shape).astype(np.float32)  # some pairs alike, some not
+        from vfxstereo import _depth_kernels
+
+        got, s, c = dr.copy(), src.copy(), col.copy()
+        _depth_kernels.join_plain_flood(got, s, c, col, fl, np.float32(0.04), np.float32(1.5))
+        want = depth.join_plain_reference(dr, col, fl, src, 0.04, 1.5)
+        assert np.abs(got - want).max() == 0.0
+
+
+def test_plain_join_settings_are_checked():
+    from vfxstereo.errors import VfxStereoError
+
+    assert depth.DepthConfig().join
+    for bad in ({"join_plain": 0.0}, {"join_like": 0.0}, {"join_jump": -1.0}, {"join_anchor": -1},
+                {"join_ratio": 0.0}, {"join_floor": -1.0}, {"join_share": 1.5}):
+        with pytest.raises(VfxStereoError):
+            depth.DepthConfig(**bad)
+
+
+def test_views_confirm_keeps_a_move_the_views_see_and_puts_back_one_they_contradict():
+    """Over the bars scene's textured wall (d = 1): a block wrongly at d = 6 moved back to the wall is kept; a block
+    of the wall moved to d = 6 is put back, since every view sees other texture there."""
+    views, warper, ref, gt, _ = _bars_over_texture()
+    before = gt.astype(np.float32).copy()
+    after = before.copy()
+    wall = np.abs(gt - 1.0) < 1e-6
+    right = np.zeros(gt.shape, bool)
+    right[30:50, 20:40] = True
+    wrong = np.zeros(gt.shape, bool)
+    wrong[30:50, 90:110] = True
+    right &= wall
+    wrong &= wall
+    before[right] = 6.0  # the map had it wrong; the move gives the wall back
+    after[wrong] = 6.0  # the map had it right; the move takes the wall away
+    out = depth.views_confirm(views, warper, ref, before, after)
+    np.testing.assert_array_equal(out[right], 1.0)
+    np.testing.assert_array_equal(out[wrong], 1.0)
+    np.testing.assert_array_equal(out[~(right | wrong)], before[~(right | wrong)])
+    np.testing.assert_array_equal(depth.views_confirm(views, warper, ref, before, before), before)

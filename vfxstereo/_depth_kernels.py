@@ -655,3 +655,75 @@ def plane_errors(views, reference, others, gains, offsets, ys, xs, disparities, 
                     inside += 1
                     worst = max(worst, least)
             out[i, n] = worst if inside >= min_views else np.inf
+
+
+@njit(cache=True, nogil=True)
+def join_plain_flood(d, source, carried, colour, flat, like, jump):
+    """Step 12's flood (:func:`vfxstereo.depth.join_plain`) in place, in rounds, from the pixels that changed.
+
+    In each round every flat pixel takes the farthest disparity offered by its 4-neighbours that are flat
+    ``source`` pixels, farther than the pixel's disparity (as it was at the start of the round) by more than
+    ``jump``, and whose ``carried`` colour (the colour of the source the flood started from) is within ``like`` of
+    the pixel's in every channel; it then carries that colour and is a source itself. Only the pixels that
+    changed in a round can offer anything new in the next, so each round visits only those: the flood advances one
+    pixel per round from every source at once (the nearest source reaches a pixel first), as
+    :func:`vfxstereo.depth.join_plain_reference` does over the whole plate. Returns the number of rounds.
+    """
+    H, W = d.shape
+    C = colour.shape[2]
+    fy = np.empty(H * W, np.int64)
+    fx = np.empty(H * W, np.int64)
+    ny = np.empty(H * W, np.int64)
+    nx = np.empty(H * W, np.int64)
+    nf = 0
+    for y in range(H):
+        for x in range(W):
+            if source[y, x] and flat[y, x]:
+                fy[nf] = y
+                fx[nf] = x
+                nf += 1
+    best = d.copy()
+    best_c = carried.copy()
+    stamp = np.zeros((H, W), np.int64)
+    rounds = 0
+    while nf > 0:
+        rounds += 1
+        nn = 0
+        for i in range(nf):
+            y = fy[i]
+            x = fx[i]
+            dq = d[y, x]
+            for n in range(4):
+                yy = y + (1 if n == 0 else -1 if n == 1 else 0)
+                xx = x + (1 if n == 2 else -1 if n == 3 else 0)
+                if yy < 0 or yy >= H or xx < 0 or xx >= W or not flat[yy, xx]:
+                    continue
+                if not (dq < d[yy, xx] - jump and dq < best[yy, xx]):
+                    continue
+                alike = True
+                for c in range(C):
+                    if abs(colour[yy, xx, c] - carried[y, x, c]) >= like:
+                        alike = False
+                        break
+                if not alike:
+                    continue
+                best[yy, xx] = dq
+                for c in range(C):
+                    best_c[yy, xx, c] = carried[y, x, c]
+                if stamp[yy, xx] != rounds:
+                    stamp[yy, xx] = rounds
+                    ny[nn] = yy
+                    nx[nn] = xx
+                    nn += 1
+        for i in range(nn):
+            y = ny[i]
+            x = nx[i]
+            d[y, x] = best[y, x]
+            for c in range(C):
+                carried[y, x, c] = best_c[y, x, c]
+            source[y, x] = True
+            fy[i] = y
+            fx[i] = x
+        nf = nn
+    return rounds
+

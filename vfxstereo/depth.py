@@ -438,6 +438,28 @@ class DepthConfig:
     """... or where it is thin: no pixel of it farther than this from its border (px; a bar or a wire)."""
     thin_size: int = 10
     """Groups smaller than this (px) are dropped."""
+    join: bool = True
+    """Step 12 (:func:`join_plain`), on the whole plate: inside a plain region of one colour, the nearer side of a
+    depth step takes the farther side's depth (there is no colour edge for a depth edge to sit on), flooding from
+    farther pixels whose depth some texture nearby supports."""
+    join_plain: float = 3.0
+    """Step 12's plain pixels: local deviation of the grey (8-bit sRGB, 5 x 5) below this."""
+    join_like: float = 0.04
+    """Step 12 floods over pixels whose colour is within this of the colour it started from (every sRGB channel,
+    0-1)."""
+    join_jump: float = 1.5
+    """Step 12 moves only pixels nearer than the flood's depth by more than this (px per view step)."""
+    join_anchor: int = 8
+    """Step 12 starts only from pixels with a textured pixel at their depth (within 1 px) within this reach (px)."""
+    join_check: bool = True
+    """Step 12's moves are checked against the views (:func:`views_confirm`, ``join_ratio``, ``join_floor``,
+    ``join_share``)."""
+    join_ratio: float = 4.0
+    """:func:`views_confirm`'s ``ratio``."""
+    join_floor: float = 0.002
+    """:func:`views_confirm`'s ``floor`` (colour^2)."""
+    join_share: float = 0.1
+    """:func:`views_confirm`'s ``share``."""
 
     def __post_init__(self):
         if (self.box < 1 or self.paths not in (4, 8) or self.median < 0 or self.visibility_passes < 0
@@ -467,6 +489,10 @@ class DepthConfig:
                 and self.colour_ratio > 0 and self.colour_jump >= 0):
             raise VfxStereoError("depth settings: colour_radius, colour_stride >= 1, colour_like, colour_ratio > 0, "
                                  "colour_jump >= 0")
+        if not (self.join_plain > 0 and self.join_like > 0 and self.join_jump >= 0 and self.join_anchor >= 0
+                and self.join_ratio > 0 and self.join_floor >= 0 and 0 <= self.join_share <= 1):
+            raise VfxStereoError("depth settings: join_plain, join_like, join_ratio > 0, join_jump, join_anchor, "
+                                 "join_floor >= 0, 0 <= join_share <= 1")
 
 
 @dataclass
@@ -1005,7 +1031,7 @@ def robust_depth(views: np.ndarray, warper, reference: int, *, config: DepthConf
 
 
 def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConfig, progress) -> DepthResult:
-    """``res`` after steps 9 (``config.reopen``; 64 px), 10 (``config.colour_reopen``) and 11 (``config.thin``)."""
+    """``res`` after steps 9 (``config.reopen``; 64 px), 10 (``colour_reopen``), 11 (``thin``), 12 (``join``)."""
     from vfxstereo.layers import plane_index
     from vfxstereo.sweep import matching_values
 
@@ -1030,6 +1056,19 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
             res.disparity = thin
             changed = True
         res.timings["thin"] = time.perf_counter() - t0
+    if config.join:
+        t0 = time.perf_counter()
+        joined, moved = join_plain(res.disparity, matching_values(views[reference], "srgb", 1.0),
+                                   plain=config.join_plain, like=config.join_like, jump=config.join_jump,
+                                   anchor=config.join_anchor)
+        if moved.any() and config.join_check:
+            joined = views_confirm(views, warper, reference, res.disparity, joined, jitter=config.reopen_jitter,
+                                   ratio=config.join_ratio, floor=config.join_floor, share=config.join_share)
+            moved = joined != res.disparity
+        if moved.any():
+            res.disparity = joined
+            changed = True
+        res.timings["join"] = time.perf_counter() - t0
     if changed:  # the planes of the map the steps left, once
         res.index = plane_index(res.disparity, warper.disparities)
     return res
@@ -1499,15 +1538,8 @@ def recover_thin(views: np.ndarray, warper, reference: int, disparity: np.ndarra
         return d0, moved
     views = np.asarray(views, np.float32)
     d = np.asarray(warper.disparities, np.float64)
-    step = warper.step
     gains = view_gains(views, warper, reference, d0) if gains is None else np.asarray(gains, np.float32)
-    errors = patch_errors(views, warper, reference, d0, gains, jitter=config.reopen_jitter, size=1)
-    seen = np.zeros(errors.shape, bool)
-    for n, k in enumerate(others):  # the z-buffer's own projection of the map says where each pixel lands
-        u, v = warper.project(d0, k)
-        zb = zbuffer(warper, d0, k, uv=(u, v))
-        zk = ndimage.map_coordinates(zb, [np.nan_to_num(v), np.nan_to_num(u)], order=0, mode="nearest")
-        seen[n] = zk <= d0 + 2.0 * step
+    errors, seen = seen_errors(views, warper, reference, d0, gains, jitter=config.reopen_jitter)
     sides = np.array([side[k] for k in others])
     both = seen[sides < 0].any(axis=0) & seen[sides > 0].any(axis=0)
     own = np.where(seen, errors, np.inf).min(axis=0)
@@ -1580,6 +1612,140 @@ def plane_errors_reference(views: np.ndarray, warper, reference: int, ys: np.nda
         fin = np.isfinite(e)
         out[i] = np.where(fin.sum(axis=0) >= min_views, np.where(fin, e, 0.0).max(axis=0), np.inf)
     return out
+
+
+def anchored(disparity: np.ndarray, textured: np.ndarray, reach: int, tolerance: float = 1.0) -> np.ndarray:
+    """(H, W) bool: pixels with a ``textured`` pixel within ``tolerance`` of their disparity around them.
+
+    The window is the (2 ``reach`` + 1)-px square: a depth some texture nearby supports, not only the smoothness
+    and the flat-surface bias that carry a depth over plain pixels.
+    """
+    from scipy import ndimage
+
+    d = np.asarray(disparity, np.float32)
+    out = np.zeros(d.shape, bool)
+    size = 2 * int(reach) + 1
+    for v in np.unique(np.rint(d)):
+        here = np.abs(d - v) <= 0.5
+        if not here.any():
+            continue
+        support = (textured & (np.abs(d - v) <= tolerance)).astype(np.float32)
+        near = ndimage.uniform_filter(support, size, mode="constant") > 0.5 / size ** 2
+        out |= here & near
+    return out
+
+
+def join_plain(disparity: np.ndarray, colour: np.ndarray, *, plain: float = 3.0, like: float = 0.04,
+               jump: float = 1.5, anchor: int = 8) -> tuple[np.ndarray, np.ndarray]:
+    """Step 12: inside a plain region of one colour the nearer side of a depth step joins the farther one.
+
+    Such a step has no colour edge under it. Returns ``(disparity, moved)``.
+
+    A plain wall beside a textured subject, or seen through a grille, matches about as well at the subject's
+    depth as at its own, and semi-global matching carries the subject's depth into it: the map then steps from
+    the subject's depth back to the wall's somewhere inside the wall, where the plate shows no edge at all. Here
+    the farther depth floods back over the plain pixels (local deviation of the grey, 8-bit sRGB, over 5 x 5
+    below ``plain``) from a farther plain pixel whose depth texture within ``anchor`` px supports
+    (:func:`anchored`; a depth only the flat-surface bias put there, or a rim the background grew into a near
+    board, does not spread), step by step between 4-neighbours, as long as each pixel's colour (``colour``,
+    sRGB-encoded 0-1) stays within ``like`` of the colour the flood started from in every channel, and only to
+    pixels nearer than that depth by more than ``jump``. Nothing moves nearer, and a colour edge (a textured
+    pixel) stops it. A plain near surface whose colour continues, unbroken, into a farther one of the same colour
+    (a pale board on a wall of its colour, no edge between) goes back with it: the plate cannot tell them apart.
+    """
+    from vfxstereo import _depth_kernels
+
+    d0 = np.ascontiguousarray(disparity, np.float32)
+    col = np.ascontiguousarray(colour, np.float32)
+    flat = local_deviation(col.mean(axis=-1) * 255.0, 5) < plain
+    source = anchored(d0, ~flat, anchor) & flat
+    d = d0.copy()
+    carried = col.copy()
+    _depth_kernels.join_plain_flood(d, source, carried, col, flat, np.float32(like), np.float32(jump))
+    return d, d != d0
+
+
+def seen_errors(views: np.ndarray, warper, reference: int, disparity: np.ndarray, gains: np.ndarray, *,
+                jitter: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(errors, seen)``, each (K - 1, H, W): the other views' errors and visibility at the map's disparities.
+
+    ``errors``: each other view's :func:`patch_errors` (1 px) at each reference pixel's disparity; ``seen``:
+    whether the map's z-buffer in that view (two plane steps of tolerance) lets the view see the pixel there
+    (the z-buffer's own projection of the map says where each pixel lands).
+    """
+    from scipy import ndimage
+
+    d0 = np.asarray(disparity, np.float32)
+    errors = patch_errors(views, warper, reference, d0, gains, jitter=jitter, size=1)
+    seen = np.zeros(errors.shape, bool)
+    for n, k in enumerate(k for k in range(views.shape[0]) if k != reference):
+        u, v = warper.project(d0, k)
+        zb = zbuffer(warper, d0, k, uv=(u, v))
+        zk = ndimage.map_coordinates(zb, [np.nan_to_num(v), np.nan_to_num(u)], order=0, mode="nearest")
+        seen[n] = zk <= d0 + 2.0 * warper.step
+    return errors, seen
+
+
+def views_confirm(views: np.ndarray, warper, reference: int, before: np.ndarray, after: np.ndarray, *,
+                  gains: np.ndarray | None = None, jitter: float = 0.5, ratio: float = 4.0, floor: float = 0.002,
+                  share: float = 0.1) -> np.ndarray:
+    """``after`` with the groups of moved pixels the views contradict put back to ``before``.
+
+    A group (8-connected pixels where the maps differ) is contradicted where more than ``share`` of its pixels
+    that some view sees at their new depth (:func:`seen_errors`, within ``jitter``) are seen there with an error
+    (least over those views) above ``ratio`` times the error at their old depth (least over the views that see
+    them there; 0 where none does) plus ``floor``. A plain surface moved behind a near one it is not part of
+    passes (the views see plain colour there too); one moved where the views see its edge, or another surface,
+    does not.
+    """
+    from scipy import ndimage
+
+    from vfxstereo.layers import view_gains
+
+    before = np.asarray(before, np.float32)
+    after = np.asarray(after, np.float32)
+    moved = after != before
+    if not moved.any():
+        return after
+    views = np.asarray(views, np.float32)
+    gains = view_gains(views, warper, reference, before) if gains is None else np.asarray(gains, np.float32)
+    e0, s0 = seen_errors(views, warper, reference, before, gains, jitter=jitter)
+    e1, s1 = seen_errors(views, warper, reference, after, gains, jitter=jitter)
+    old = np.where(s0, e0, np.inf).min(axis=0)
+    new = np.where(s1, e1, np.inf).min(axis=0)
+    seen = np.isfinite(new) & moved
+    bad = seen & (new > ratio * np.where(np.isfinite(old), old, 0.0) + floor)
+    labels, n = ndimage.label(moved, structure=np.ones((3, 3), bool))
+    keep = np.bincount(labels[bad], minlength=n + 1) <= share * np.maximum(np.bincount(labels[seen],
+                                                                                       minlength=n + 1), 1)
+    keep[0] = False
+    return np.where(keep[labels], after, before).astype(np.float32)
+
+
+def join_plain_reference(disparity: np.ndarray, colour: np.ndarray, flat: np.ndarray, source: np.ndarray,
+                         like: float, jump: float) -> np.ndarray:
+    """Plain numpy flood of :func:`join_plain`, the reference its kernel is tested against.
+
+    All pixels at once per round, each taking the farthest valid neighbour; the same map as the kernel's where
+    the flood's colours do not compete.
+    """
+    d = np.asarray(disparity, np.float64).copy()
+    carried, source = np.asarray(colour, np.float64).copy(), np.asarray(source, bool).copy()
+    col = np.asarray(colour, np.float64)
+    h, w = d.shape
+    while True:
+        best, best_c, best_s = d.copy(), carried.copy(), source.copy()
+        for dy, dx in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+            p = (slice(max(-dy, 0), h - max(dy, 0)), slice(max(-dx, 0), w - max(dx, 0)))
+            q = (slice(max(dy, 0), h - max(-dy, 0)), slice(max(dx, 0), w - max(-dx, 0)))
+            ok = (flat[p] & source[q] & flat[q] & (d[q] < d[p] - jump) & (d[q] < best[p])
+                  & (np.abs(col[p] - carried[q]) < like).all(axis=-1))
+            best[p] = np.where(ok, d[q], best[p])
+            best_c[p] = np.where(ok[..., None], carried[q], best_c[p])
+            best_s[p] |= ok
+        if np.array_equal(best, d):
+            return d
+        d, carried, source = best, best_c, best_s
 
 
 def _consistency_offset(warper, reference: int, steps: int | None) -> float | None:
