@@ -737,7 +737,7 @@ def test_colour_reopening_runs_in_the_stage_by_default_and_its_settings_are_chec
     on = depth.robust_depth(views, warper, ref)
     off = depth.robust_depth(views, warper, ref, config=replace(depth.DepthConfig(), colour_reopen=False))
     assert "colour reopen" in on.timings and "colour reopen" not in off.timings
-    assert "join" in on.timings  # step 12 runs after it by default
+    assert "join" not in on.timings  # step 12 is off by default
     assert np.all(on.disparity <= off.disparity)
     np.testing.assert_array_equal(on.index, plane_index(on.disparity, warper.disparities))
     for bad in ({"colour_radius": 0}, {"colour_stride": 0}, {"colour_like": 0.0}, {"colour_ratio": 0.0},
@@ -871,18 +871,19 @@ def test_plain_join_kernel_matches_its_numpy_reference(rng):
         col += rng.uniform(-0.03, 0.03, col.shape).astype(np.float32)  # some pairs alike, some not
         from vfxstereo import _depth_kernels
 
-        got, s, c = dr.copy(), src.copy(), col.copy()
-        _depth_kernels.join_plain_flood(got, s, c, col, fl, np.float32(0.04), np.float32(1.5))
-        want = depth.join_plain_reference(dr, col, fl, src, 0.04, 1.5)
-        assert np.abs(got - want).max() == 0.0
+        for reach in (0, 3):
+            got, s, c = dr.copy(), src.copy(), col.copy()
+            _depth_kernels.join_plain_flood(got, s, c, col, fl, np.float32(0.04), np.float32(1.5), reach)
+            want = depth.join_plain_reference(dr, col, fl, src, 0.04, 1.5, reach)
+            assert np.abs(got - want).max() == 0.0
 
 
 def test_plain_join_settings_are_checked():
     from vfxstereo.errors import VfxStereoError
 
-    assert depth.DepthConfig().join
+    assert not depth.DepthConfig().join
     for bad in ({"join_plain": 0.0}, {"join_like": 0.0}, {"join_jump": -1.0}, {"join_anchor": -1},
-                {"join_ratio": 0.0}, {"join_floor": -1.0}, {"join_share": 1.5}):
+                {"join_ratio": 0.0}, {"join_floor": -1.0}, {"join_share": 1.5}, {"join_reach": -1}):
         with pytest.raises(VfxStereoError):
             depth.DepthConfig(**bad)
 

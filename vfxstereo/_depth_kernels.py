@@ -658,7 +658,7 @@ def plane_errors(views, reference, others, gains, offsets, ys, xs, disparities, 
 
 
 @njit(cache=True, nogil=True)
-def join_plain_flood(d, source, carried, colour, flat, like, jump):
+def join_plain_flood(d, source, carried, colour, flat, like, jump, max_rounds):
     """Step 12's flood (:func:`vfxstereo.depth.join_plain`) in place, in rounds, from the pixels that changed.
 
     In each round every flat pixel takes the farthest disparity offered by its 4-neighbours that are flat
@@ -667,7 +667,9 @@ def join_plain_flood(d, source, carried, colour, flat, like, jump):
     the pixel's in every channel; it then carries that colour and is a source itself. Only the pixels that
     changed in a round can offer anything new in the next, so each round visits only those: the flood advances one
     pixel per round from every source at once (the nearest source reaches a pixel first), as
-    :func:`vfxstereo.depth.join_plain_reference` does over the whole plate. Returns the number of rounds.
+    :func:`vfxstereo.depth.join_plain_reference` does over the whole plate. At most ``max_rounds`` rounds (0: until
+    nothing changes), so nothing moves farther than that many 4-connected steps from where the flood started.
+    Returns the number of rounds.
     """
     H, W = d.shape
     C = colour.shape[2]
@@ -686,7 +688,7 @@ def join_plain_flood(d, source, carried, colour, flat, like, jump):
     best_c = carried.copy()
     stamp = np.zeros((H, W), np.int64)
     rounds = 0
-    while nf > 0:
+    while nf > 0 and (max_rounds <= 0 or rounds < max_rounds):
         rounds += 1
         nn = 0
         for i in range(nf):

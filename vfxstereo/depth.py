@@ -52,6 +52,11 @@ This stage gives the layered model a dependable front surface instead, from clas
    a wire or twigs over a textured background, which the window of steps 1-3 and the median gave the
    background's depth (the opposite of steps 9 and 10, and only where all the views agree, since nothing hides a
    near structure from them).
+12. Optionally (``join``, :func:`join_plain`; off: it costs Middlebury's plain objects), plain joins on the whole
+   plate: inside a plain region of one colour, the nearer side of a depth step takes the farther side's depth,
+   flooding from farther pixels whose depth some texture nearby supports, wherever the views do not contradict
+   the move (:func:`views_confirm`): the plain wall beside a textured subject, or between a grille's bars, that
+   the window and SGM gave the subject's depth.
 
 Measured (``benchmarks/middlebury.py``, all 31 sets, one published px apart, the GT's view as reference):
 0.47x OpenCV SGBM's bad pixels on average (9.4 % against 19.5 %), at most 0.88x (Midd1). Per set: tsukuba
@@ -438,10 +443,39 @@ class DepthConfig:
     """... or where it is thin: no pixel of it farther than this from its border (px; a bar or a wire)."""
     thin_size: int = 10
     """Groups smaller than this (px) are dropped."""
-    join: bool = True
+    join: bool = False
     """Step 12 (:func:`join_plain`), on the whole plate: inside a plain region of one colour, the nearer side of a
     depth step takes the farther side's depth (there is no colour edge for a depth edge to sit on), flooding from
-    farther pixels whose depth some texture nearby supports."""
+    farther pixels whose depth some texture nearby supports; each group of moved pixels is then checked against
+    the views (``join_check``). It is aimed at a plain wall beside a textured subject or seen through a grille,
+    which the window and SGM gave the subject's depth, so that a z-keyed element between them is hidden by
+    a wall that is not there.
+
+    Off by default, because Middlebury's plain objects go back with it: depth alone, all 31 sets, 9.39 -> 10.11 %
+    bad (0.51x SGBM), and Baby3 8.30 -> 11.15 % is then above SGBM's 10.19 (Reindeer 9.1 -> 18.3, Bowling1 12.4
+    -> 17.5, Plastic 34.5 -> 37.5, Books 15.5 -> 17.7; better: Midd2 17.3 -> 15.4, Midd1 25.5 -> 24.2,
+    Lampshade2 6.6 -> 5.5, tsukuba 3.65 -> 3.37). With ``join_reach`` 24 px the sets it hurt most come back
+    (Baby3 9.10, Bowling1 12.44, Reindeer 9.00, Plastic 34.10, Books 15.85; Moebius 12.04 -> 12.82) but the z-key
+    gain halves (tuning rows +0.27 / +0.14, rows losing to the SGBM key 16 / 10 -> 17 / 12: curls_wire_midd K = 5
+    one row -2.3 / -1.7). Measured without a reach (session 30, z-key benchmark, frame / band dB):
+
+    * the 230 rows of the 25 tuning scenes 28.77 / 22.47 -> 29.30 / 22.77: doll_plaster K = 5 +8.9 / +4.9 (the
+      plaster wall between the doll's hair and a card), hair_shelves K = 5 +4.4 / +2.5, koala_slope +2.1 / 0.0
+      and +3.9 / +0.5, sheep_duck_wall K = 5 +2.9 / +0.9, fur_grey_wall K = 2 +1.7 / +0.8, fence_dof +0.6 / +0.3
+      and +0.5 / +0.5; worse: rabbit_cream_board K = 5 -1.6 / 0.0 (one row -12.8 / -1.0: the rim of the plain
+      board in front had the rabbit's depth, the rabbit's texture beside it supports that depth, and the whole
+      board follows), witch_monster K = 5 -0.5 / -0.1 (one row -6.3), plush_wall K = 5 -0.5 / -0.5. Rows losing
+      to the SGBM key 16 / 10 -> 18 / 11;
+    * without the views check: +0.42 / +0.30 (sheep_duck_wall K = 2 -3.1 / +0.8, where the pale sheep's colour
+      runs on into the wall; with the check +1.4 / +1.0);
+    * the four held-out scenes, scored once after: 30.89 / 28.02 -> 31.63 / 28.24 (duck_monster_baby +4.5 / +1.7
+      and +2.1 / +1.4; fur_pillar_monopoly -0.3 / -1.1 and -0.4 / -0.3, one row -2.1 / -6.6), rows losing 6 / 4
+      -> 7 / 4; all 278 rows 29.14 / 23.42 -> 29.70 / 23.71, rows losing 22 / 14 -> 25 / 15;
+    * tried and left out: sources only inside a plain patch at one depth (more than half of 5 x 5), and support
+      only from texture of the source's own colour -- neither changes what moves (the rim that pulls
+      rabbit_cream_board's board is wider than that, and the non-plain pixels along any colour edge carry the
+      plain side's colour); a colour-weighted median of the map (radius 7) near its depth edges instead: -0.17
+      / -0.18."""
     join_plain: float = 3.0
     """Step 12's plain pixels: local deviation of the grey (8-bit sRGB, 5 x 5) below this."""
     join_like: float = 0.04
@@ -451,6 +485,8 @@ class DepthConfig:
     """Step 12 moves only pixels nearer than the flood's depth by more than this (px per view step)."""
     join_anchor: int = 8
     """Step 12 starts only from pixels with a textured pixel at their depth (within 1 px) within this reach (px)."""
+    join_reach: int = 0
+    """Step 12 moves no pixel more than this many 4-connected steps from where its flood started (0: no limit)."""
     join_check: bool = True
     """Step 12's moves are checked against the views (:func:`views_confirm`, ``join_ratio``, ``join_floor``,
     ``join_share``)."""
@@ -490,9 +526,10 @@ class DepthConfig:
             raise VfxStereoError("depth settings: colour_radius, colour_stride >= 1, colour_like, colour_ratio > 0, "
                                  "colour_jump >= 0")
         if not (self.join_plain > 0 and self.join_like > 0 and self.join_jump >= 0 and self.join_anchor >= 0
-                and self.join_ratio > 0 and self.join_floor >= 0 and 0 <= self.join_share <= 1):
+                and self.join_reach >= 0 and self.join_ratio > 0 and self.join_floor >= 0
+                and 0 <= self.join_share <= 1):
             raise VfxStereoError("depth settings: join_plain, join_like, join_ratio > 0, join_jump, join_anchor, "
-                                 "join_floor >= 0, 0 <= join_share <= 1")
+                                 "join_reach, join_floor >= 0, 0 <= join_share <= 1")
 
 
 @dataclass
@@ -1060,7 +1097,7 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
         t0 = time.perf_counter()
         joined, moved = join_plain(res.disparity, matching_values(views[reference], "srgb", 1.0),
                                    plain=config.join_plain, like=config.join_like, jump=config.join_jump,
-                                   anchor=config.join_anchor)
+                                   anchor=config.join_anchor, reach=config.join_reach)
         if moved.any() and config.join_check:
             joined = views_confirm(views, warper, reference, res.disparity, joined, jitter=config.reopen_jitter,
                                    ratio=config.join_ratio, floor=config.join_floor, share=config.join_share)
@@ -1636,7 +1673,7 @@ def anchored(disparity: np.ndarray, textured: np.ndarray, reach: int, tolerance:
 
 
 def join_plain(disparity: np.ndarray, colour: np.ndarray, *, plain: float = 3.0, like: float = 0.04,
-               jump: float = 1.5, anchor: int = 8) -> tuple[np.ndarray, np.ndarray]:
+               jump: float = 1.5, anchor: int = 8, reach: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """Step 12: inside a plain region of one colour the nearer side of a depth step joins the farther one.
 
     Such a step has no colour edge under it. Returns ``(disparity, moved)``.
@@ -1661,7 +1698,7 @@ def join_plain(disparity: np.ndarray, colour: np.ndarray, *, plain: float = 3.0,
     source = anchored(d0, ~flat, anchor) & flat
     d = d0.copy()
     carried = col.copy()
-    _depth_kernels.join_plain_flood(d, source, carried, col, flat, np.float32(like), np.float32(jump))
+    _depth_kernels.join_plain_flood(d, source, carried, col, flat, np.float32(like), np.float32(jump), int(reach))
     return d, d != d0
 
 
@@ -1723,7 +1760,7 @@ def views_confirm(views: np.ndarray, warper, reference: int, before: np.ndarray,
 
 
 def join_plain_reference(disparity: np.ndarray, colour: np.ndarray, flat: np.ndarray, source: np.ndarray,
-                         like: float, jump: float) -> np.ndarray:
+                         like: float, jump: float, reach: int = 0) -> np.ndarray:
     """Plain numpy flood of :func:`join_plain`, the reference its kernel is tested against.
 
     All pixels at once per round, each taking the farthest valid neighbour; the same map as the kernel's where
@@ -1733,7 +1770,9 @@ def join_plain_reference(disparity: np.ndarray, colour: np.ndarray, flat: np.nda
     carried, source = np.asarray(colour, np.float64).copy(), np.asarray(source, bool).copy()
     col = np.asarray(colour, np.float64)
     h, w = d.shape
-    while True:
+    rounds = 0
+    while reach <= 0 or rounds < reach:
+        rounds += 1
         best, best_c, best_s = d.copy(), carried.copy(), source.copy()
         for dy, dx in ((1, 0), (-1, 0), (0, 1), (0, -1)):
             p = (slice(max(-dy, 0), h - max(dy, 0)), slice(max(-dx, 0), w - max(dx, 0)))
@@ -1746,6 +1785,7 @@ def join_plain_reference(disparity: np.ndarray, colour: np.ndarray, flat: np.nda
         if np.array_equal(best, d):
             return d
         d, carried, source = best, best_c, best_s
+    return d
 
 
 def _consistency_offset(warper, reference: int, steps: int | None) -> float | None:
