@@ -471,6 +471,9 @@ class DepthConfig:
     * the four held-out scenes, scored once after: 30.89 / 28.02 -> 31.63 / 28.24 (duck_monster_baby +4.5 / +1.7
       and +2.1 / +1.4; fur_pillar_monopoly -0.3 / -1.1 and -0.4 / -0.3, one row -2.1 / -6.6), rows losing 6 / 4
       -> 7 / 4; all 278 rows 29.14 / 23.42 -> 29.70 / 23.71, rows losing 22 / 14 -> 25 / 15;
+    * with the ``grille`` preset's rival gate it adds only +0.01 / +0.12 on the tuning rows (the gate sends most
+      of the same walls back: the ``grille`` preset alone is +0.57 / +0.80 over the default there), so it is not
+      in that preset either;
     * tried and left out: sources only inside a plain patch at one depth (more than half of 5 x 5), and support
       only from texture of the source's own colour -- neither changes what moves (the rim that pulls
       rabbit_cream_board's board is wider than that, and the non-plain pixels along any colour edge carry the
