@@ -673,10 +673,10 @@ def join_plain_flood(d, source, carried, colour, flat, like, jump, max_rounds):
     """
     H, W = d.shape
     C = colour.shape[2]
-    fy = np.empty(H * W, np.int64)
-    fx = np.empty(H * W, np.int64)
-    ny = np.empty(H * W, np.int64)
-    nx = np.empty(H * W, np.int64)
+    fy = np.empty(H * W, np.int32)  # the frontier's rows and columns (int32: 4K plates fit)
+    fx = np.empty(H * W, np.int32)
+    ny = np.empty(H * W, np.int32)
+    nx = np.empty(H * W, np.int32)
     nf = 0
     for y in range(H):
         for x in range(W):
@@ -686,7 +686,7 @@ def join_plain_flood(d, source, carried, colour, flat, like, jump, max_rounds):
                 nf += 1
     best = d.copy()
     best_c = carried.copy()
-    stamp = np.zeros((H, W), np.int64)
+    stamp = np.zeros((H, W), np.int32)
     rounds = 0
     while nf > 0 and (max_rounds <= 0 or rounds < max_rounds):
         rounds += 1
