@@ -659,13 +659,14 @@ def plane_errors(views, reference, others, gains, offsets, ys, xs, disparities, 
 
 @njit(cache=True, nogil=True)
 def join_plain_flood(d, source, carried, colour, flat, like, jump, max_rounds):
-    """Step 12's flood (:func:`vfxstereo.depth.join_plain`) in place, in rounds, from the pixels that changed.
+    """Step 12's flood (:func:`vfxstereo.depth.join_plain`), in rounds, from the pixels that changed.
 
-    In each round every flat pixel takes the farthest disparity offered by its 4-neighbours that are flat
-    ``source`` pixels, farther than the pixel's disparity (as it was at the start of the round) by more than
-    ``jump``, and whose ``carried`` colour (the colour of the source the flood started from) is within ``like`` of
-    the pixel's in every channel; it then carries that colour and is a source itself. Only the pixels that
-    changed in a round can offer anything new in the next, so each round visits only those: the flood advances one
+    ``d`` and ``carried`` change in place. In each round every flat pixel takes the farthest disparity offered by
+    its 4-neighbours that are flat sources, farther than the pixel's disparity (as it was at the start of the
+    round) by more than ``jump``, and whose ``carried`` colour (the colour of the source the flood started from)
+    is within ``like`` of the pixel's in every channel; it then carries that colour and is a source itself. The
+    first round's sources are the flat ``source`` pixels; after that only the pixels that changed in a round can
+    offer anything new in the next, so each round visits only those: the flood advances one
     pixel per round from every source at once (the nearest source reaches a pixel first), as
     :func:`vfxstereo.depth.join_plain_reference` does over the whole plate. At most ``max_rounds`` rounds (0: until
     nothing changes), so nothing moves farther than that many 4-connected steps from where the flood started.
@@ -723,9 +724,7 @@ def join_plain_flood(d, source, carried, colour, flat, like, jump, max_rounds):
             d[y, x] = best[y, x]
             for c in range(C):
                 carried[y, x, c] = best_c[y, x, c]
-            source[y, x] = True
             fy[i] = y
             fx[i] = x
         nf = nn
     return rounds
-

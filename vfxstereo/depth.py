@@ -1076,6 +1076,8 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
     from vfxstereo.sweep import matching_values
 
     changed = False
+    # the plate in sRGB, for steps 10 and 12's colour tests: converted once
+    colour = matching_values(views[reference], "srgb", 1.0) if config.colour_reopen or config.join else None
     if config.reopen and config.reopen_passes > 0 and views.shape[0] - 1 >= config.reopen_views:
         t0 = time.perf_counter()
         res.disparity = reopen_gaps(views, warper, reference, res.disparity, config=config, progress=progress)[0]
@@ -1083,7 +1085,7 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
         changed = True
     if config.colour_reopen:
         t0 = time.perf_counter()
-        res.disparity = reopen_by_colour(res.disparity, matching_values(views[reference], "srgb", 1.0),
+        res.disparity = reopen_by_colour(res.disparity, colour,
                                          radius=config.colour_radius, stride=config.colour_stride,
                                          like=config.colour_like, ratio=config.colour_ratio,
                                          jump=config.colour_jump)[0]
@@ -1098,7 +1100,7 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
         res.timings["thin"] = time.perf_counter() - t0
     if config.join:
         t0 = time.perf_counter()
-        joined, moved = join_plain(res.disparity, matching_values(views[reference], "srgb", 1.0),
+        joined, moved = join_plain(res.disparity, colour,
                                    plain=config.join_plain, like=config.join_like, jump=config.join_jump,
                                    anchor=config.join_anchor, reach=config.join_reach)
         if moved.any() and config.join_check:
