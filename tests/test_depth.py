@@ -856,6 +856,82 @@ def test_plain_join_gives_a_grown_strip_the_walls_depth_and_moves_nothing_else(r
     assert np.array_equal(moved2[:, :110], moved[:, :110])
 
 
+def test_plain_join_keeps_a_strip_smaller_than_its_wall_and_puts_back_one_larger(rng):
+    """``grow``: a plain surface takes a depth from a flood only where most of it already had that depth."""
+    d, colour, _ = _plain_wall_with_a_grown_strip(rng)
+    flat = depth.local_deviation(colour.mean(axis=-1) * 255.0, 5) < 3.0
+    labels, n = depth.plain_surfaces(d, colour, flat)
+    assert labels[~flat].max() == -1 and n > 4
+    wall, strip = np.unique(labels[:, 16:22][flat[:, 16:22]]), np.unique(labels[:, 22:48][flat[:, 22:48]])
+    assert len(wall) == 1 and len(strip) == 1 and wall[0] != strip[0]  # the wall's plain part, the strip
+    # the strip (24 px wide) is larger than the plain wall beside it (6 px): with grow 0.5 it goes back
+    wide, moved = depth.join_plain(d, colour, anchor=8, grow=0.5)
+    np.testing.assert_array_equal(wide, d)
+    assert not moved.any()
+    # grown by 8 px only, beside 24 px of plain wall (a speck of texture in it supports its depth near the
+    # strip): it joins the wall, exactly as without the test
+    d2 = d.copy()
+    d2[:, 22:40] = 2.0
+    colour = colour.copy()
+    colour[30:34, 34:38] = rng.uniform(0.1, 0.9, (4, 4, 3))
+    flat = depth.local_deviation(colour.mean(axis=-1) * 255.0, 5) < 3.0
+    narrow, moved2 = depth.join_plain(d2, colour, anchor=8, grow=0.5)
+    plain_strip = np.zeros(d.shape, bool)
+    plain_strip[:, 40:48] = True
+    plain_strip &= flat
+    assert plain_strip.sum() > 0.9 * 64 * 6
+    np.testing.assert_array_equal(moved2, plain_strip)
+    np.testing.assert_array_equal(narrow, depth.join_plain(d2, colour, anchor=8)[0])
+
+
+def test_plain_join_leaves_a_slope_the_map_reaches_smoothly(rng):
+    """``slopes``: a plain floor receding from d = 14 to d = 2 (texture at its far end), whose map steps by 2 px
+    at one column in its upper half only: a flood of one depth would flatten the upper half; the lower half
+    shows the map already reaches the far depth along the surface, so nothing moves. Cut the lower half off
+    (another colour) and the step is a step again."""
+    h, w = 64, 100
+    A = np.array([0.55, 0.50, 0.45], np.float32)
+    colour = np.broadcast_to(A, (h, w, 3)).copy()
+    colour[:, :16] = rng.uniform(0.1, 0.9, (h, 16, 3))
+    x = np.arange(w, dtype=np.float32)
+    d = np.broadcast_to(np.where(x < 22, 2.0, 2.0 + 0.15 * (x - 22)), (h, w)).astype(np.float32).copy()
+    d[:32, 22:] += 2.0  # the upper half steps by 2 px at column 22 ...
+    d[28:36, 22:] = np.linspace(d[27, 22:], d[36, 22:], 10)[1:-1]  # ... and runs smoothly into the lower half
+    flat = depth.local_deviation(colour.mean(axis=-1) * 255.0, 5) < 3.0
+    flattened, moved = depth.join_plain(d, colour, anchor=8)
+    assert moved[:28, 22:][flat[:28, 22:]].mean() > 0.9  # without the test: the upper half flattened to d = 2
+    assert np.all(flattened[moved] == 2.0)
+    kept, moved2 = depth.join_plain(d, colour, anchor=8, slopes=True)
+    assert not moved2.any()
+    np.testing.assert_array_equal(kept, d)
+    colour2 = colour.copy()
+    colour2[28:, 16:] = (0.2, 0.3, 0.6)  # the lower half another colour: nothing links the two sides smoothly
+    _, moved3 = depth.join_plain(d, colour2, anchor=8, slopes=True)
+    assert moved3[:26, 22:][flat[:26, 22:]].mean() > 0.9
+
+
+def test_plain_surfaces_kernel_gives_the_partition_of_its_graph_reference(rng):
+    def canonical(labels):  # number the parts in raster order of their first pixel; -1 stays
+        values, first = np.unique(labels.ravel(), return_index=True)
+        parts = values[values >= 0][np.argsort(first[values >= 0])]
+        lookup = dict(zip(parts.tolist(), range(len(parts)), strict=True))
+        return np.vectorize(lambda v: lookup.get(v, -1))(labels)
+
+    d, colour, _ = _plain_wall_with_a_grown_strip(rng)
+    flat = depth.local_deviation(colour.mean(axis=-1) * 255.0, 5) < 3.0
+    cases = [(d, colour, flat)]
+    for _ in range(3):  # random maps: steps, slopes and colours that join some neighbours and not others
+        dr = (rng.integers(0, 4, (30, 40)) * 0.6 + np.arange(40) * 0.1).astype(np.float32)
+        col = (0.5 + rng.uniform(-0.03, 0.03, (30, 40, 3))).astype(np.float32)
+        cases.append((dr, col, rng.uniform(size=dr.shape) < 0.85))
+    for dd, col, fl in cases:
+        got, n = depth.plain_surfaces(dd, col, fl)
+        want, _ = depth.plain_surfaces_reference(dd, col, fl)
+        np.testing.assert_array_equal(got, canonical(want))
+        assert n == got.max() + 1 and got.dtype == np.int32
+        assert 1 < n < fl.sum()
+
+
 def test_plain_join_kernel_matches_its_numpy_reference(rng):
     d, colour, A = _plain_wall_with_a_grown_strip(rng)
     flat = depth.local_deviation(colour.mean(axis=-1) * 255.0, 5) < 3.0
@@ -883,7 +959,8 @@ def test_plain_join_settings_are_checked():
 
     assert not depth.DepthConfig().join
     for bad in ({"join_plain": 0.0}, {"join_like": 0.0}, {"join_jump": -1.0}, {"join_anchor": -1},
-                {"join_ratio": 0.0}, {"join_floor": -1.0}, {"join_share": 1.5}, {"join_reach": -1}):
+                {"join_ratio": 0.0}, {"join_floor": -1.0}, {"join_share": 1.5}, {"join_reach": -1},
+                {"join_grow": -0.5}):
         with pytest.raises(VfxStereoError):
             depth.DepthConfig(**bad)
 

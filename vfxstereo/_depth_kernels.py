@@ -728,3 +728,61 @@ def join_plain_flood(d, source, carried, colour, flat, like, jump, max_rounds):
             fx[i] = x
         nf = nn
     return rounds
+
+
+@njit(cache=True, inline="always")
+def _root(parent, i):
+    while parent[i] != i:
+        parent[i] = parent[parent[i]]  # path halving
+        i = parent[i]
+    return i
+
+
+@njit(cache=True, nogil=True)
+def plain_surfaces(d, colour, flat, tolerance, like, labels):
+    """:func:`vfxstereo.depth.plain_surfaces` by union-find; returns the number of surfaces.
+
+    ``labels`` (H, W) int32 gets each flat pixel's surface, numbered 0, 1, ... in raster order of their first
+    pixel, and -1 elsewhere. Two 4-neighbours are joined where both are flat, their disparities differ by at
+    most ``tolerance`` and their colours by less than ``like`` in every channel.
+    """
+    H, W = d.shape
+    C = colour.shape[2]
+    parent = np.arange(H * W).astype(np.int32)
+    for y in range(H):
+        for x in range(W):
+            if not flat[y, x]:
+                continue
+            i = y * W + x
+            for n in range(2):
+                yy = y + n
+                xx = x + 1 - n
+                if yy >= H or xx >= W or not flat[yy, xx] or abs(d[y, x] - d[yy, xx]) > tolerance:
+                    continue
+                alike = True
+                for c in range(C):
+                    if abs(colour[y, x, c] - colour[yy, xx, c]) >= like:
+                        alike = False
+                        break
+                if alike:
+                    a = _root(parent, i)
+                    b = _root(parent, yy * W + xx)
+                    if a != b:
+                        if a < b:
+                            parent[b] = a
+                        else:
+                            parent[a] = b
+    n = 0
+    for y in range(H):
+        for x in range(W):
+            if not flat[y, x]:
+                labels[y, x] = -1
+                continue
+            i = y * W + x
+            r = _root(parent, i)
+            if r == i:  # the root is the surface's first pixel in raster order (roots are the smaller index)
+                labels[y, x] = n
+                n += 1
+            else:
+                labels[y, x] = labels[r // W, r % W]
+    return n

@@ -490,6 +490,12 @@ class DepthConfig:
     """Step 12 starts only from pixels with a textured pixel at their depth (within 1 px) within this reach (px)."""
     join_reach: int = 0
     """Step 12 moves no pixel more than this many 4-connected steps from where its flood started (0: no limit)."""
+    join_slopes: bool = False
+    """Step 12 leaves a plain surface where the map already reaches the flood's depth along it, smoothly
+    (neighbours within 1 px, :func:`plain_surfaces`): a slope, which a flood of one depth would flatten."""
+    join_grow: float = 0.0
+    """Step 12 keeps the moves on a plain surface only where they are at most this many times the pixels of that
+    surface that already had its depth (:func:`plain_surfaces`; 0: no such test)."""
     join_check: bool = True
     """Step 12's moves are checked against the views (:func:`views_confirm`, ``join_ratio``, ``join_floor``,
     ``join_share``)."""
@@ -529,10 +535,10 @@ class DepthConfig:
             raise VfxStereoError("depth settings: colour_radius, colour_stride >= 1, colour_like, colour_ratio > 0, "
                                  "colour_jump >= 0")
         if not (self.join_plain > 0 and self.join_like > 0 and self.join_jump >= 0 and self.join_anchor >= 0
-                and self.join_reach >= 0 and self.join_ratio > 0 and self.join_floor >= 0
+                and self.join_reach >= 0 and self.join_grow >= 0 and self.join_ratio > 0 and self.join_floor >= 0
                 and 0 <= self.join_share <= 1):
             raise VfxStereoError("depth settings: join_plain, join_like, join_ratio > 0, join_jump, join_anchor, "
-                                 "join_reach, join_floor >= 0, 0 <= join_share <= 1")
+                                 "join_reach, join_grow, join_floor >= 0, 0 <= join_share <= 1")
 
 
 @dataclass
@@ -1102,7 +1108,8 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
         t0 = time.perf_counter()
         joined, moved = join_plain(res.disparity, colour,
                                    plain=config.join_plain, like=config.join_like, jump=config.join_jump,
-                                   anchor=config.join_anchor, reach=config.join_reach)
+                                   anchor=config.join_anchor, reach=config.join_reach, grow=config.join_grow,
+                                   slopes=config.join_slopes)
         if moved.any() and config.join_check:
             joined = views_confirm(views, warper, reference, res.disparity, joined, jitter=config.reopen_jitter,
                                    ratio=config.join_ratio, floor=config.join_floor, share=config.join_share)
@@ -1678,7 +1685,8 @@ def anchored(disparity: np.ndarray, textured: np.ndarray, reach: int, tolerance:
 
 
 def join_plain(disparity: np.ndarray, colour: np.ndarray, *, plain: float = 3.0, like: float = 0.04,
-               jump: float = 1.5, anchor: int = 8, reach: int = 0) -> tuple[np.ndarray, np.ndarray]:
+               jump: float = 1.5, anchor: int = 8, reach: int = 0, grow: float = 0.0,
+               slopes: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Step 12: inside a plain region of one colour the nearer side of a depth step joins the farther one.
 
     Such a step has no colour edge under it. Returns ``(disparity, moved)``.
@@ -1694,6 +1702,13 @@ def join_plain(disparity: np.ndarray, colour: np.ndarray, *, plain: float = 3.0,
     pixels nearer than that depth by more than ``jump``. Nothing moves nearer, and a colour edge (a textured
     pixel) stops it. A plain near surface whose colour continues, unbroken, into a farther one of the same colour
     (a pale board on a wall of its colour, no edge between) goes back with it: the plate cannot tell them apart.
+
+    Then, on the plain surfaces (:func:`plain_surfaces`): with ``slopes``, moved pixels go back where the surface
+    they lay on in ``disparity`` already reaches the flood's depth (within 1 px) somewhere it did not move: the
+    map carries it there smoothly, so it is a slope or one surface, and the step was a glitch on it. With
+    ``grow`` > 0, the moves on a surface of the new map go back where they are more than ``grow`` times the
+    pixels of that surface that did not move: a strip grown over a wall is a small part of the wall, while a
+    board that followed a wrong rim, or a sofa back that followed a wrong patch, is most of its surface.
     """
     from vfxstereo import _depth_kernels
 
@@ -1704,7 +1719,69 @@ def join_plain(disparity: np.ndarray, colour: np.ndarray, *, plain: float = 3.0,
     d = d0.copy()
     carried = col.copy()
     _depth_kernels.join_plain_flood(d, source, carried, col, flat, np.float32(like), np.float32(jump), int(reach))
-    return d, d != d0
+    moved = d != d0
+    if slopes and moved.any():
+        # a surface the map already carries, smoothly, to the flood's depth is a slope, not a step: it stays
+        labels, n = plain_surfaces(d0, col, flat, like=like)
+        on = labels >= 0
+        farthest = np.full(n, np.inf, np.float32)
+        np.minimum.at(farthest, labels[on & ~moved], d0[on & ~moved])
+        back = moved & on & (farthest[np.maximum(labels, 0)] <= d + 1.0)
+        d[back] = d0[back]
+        moved &= ~back
+    if grow > 0 and moved.any():
+        labels, n = plain_surfaces(d, col, flat, like=like)
+        on = labels >= 0
+        more = np.bincount(labels[on & moved], minlength=n)
+        had = np.bincount(labels[on & ~moved], minlength=n)
+        back = moved & on & (more > grow * had)[np.maximum(labels, 0)]
+        d[back] = d0[back]
+        moved &= ~back
+    return d, moved
+
+
+def plain_surfaces(disparity: np.ndarray, colour: np.ndarray, flat: np.ndarray, *, tolerance: float = 1.0,
+                   like: float = 0.04) -> tuple[np.ndarray, int]:
+    """``(labels, n)``: the plain surfaces of a map, (H, W) int32 labels (-1 where not ``flat``) and their number.
+
+    A surface is a 4-connected set of ``flat`` pixels whose neighbours differ by at most ``tolerance`` in
+    disparity and by less than ``like`` in every colour channel: a plain wall, board or sofa back at one depth
+    (or a smooth slope), split where the map steps or the colour changes. Numbered in raster order of their
+    first pixel (a numba union-find, 8 bytes per pixel; :func:`plain_surfaces_reference` is its plain version).
+    """
+    from vfxstereo import _depth_kernels
+
+    d = np.ascontiguousarray(disparity, np.float32)
+    labels = np.empty(d.shape, np.int32)
+    n = _depth_kernels.plain_surfaces(d, np.ascontiguousarray(colour, np.float32), np.ascontiguousarray(flat, bool),
+                                      np.float32(tolerance), np.float32(like), labels)
+    return labels, int(n)
+
+
+def plain_surfaces_reference(disparity: np.ndarray, colour: np.ndarray, flat: np.ndarray, *,
+                             tolerance: float = 1.0, like: float = 0.04) -> tuple[np.ndarray, int]:
+    """:func:`plain_surfaces` as a graph's connected components (scipy), the reference its kernel is tested against.
+
+    The same partition, other numbers (and ``n`` counts the pixels that are not flat as well).
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    d = np.asarray(disparity, np.float32)
+    col = np.asarray(colour, np.float32)
+    h, w = d.shape
+    index = np.arange(h * w).reshape(h, w)
+    rows, cols = [], []
+    for a, b in (((slice(None), slice(0, -1)), (slice(None), slice(1, None))),
+                 ((slice(0, -1), slice(None)), (slice(1, None), slice(None)))):
+        joined = (flat[a] & flat[b] & (np.abs(d[a] - d[b]) <= tolerance)
+                  & (np.abs(col[a] - col[b]) < like).all(axis=-1))
+        rows.append(index[a][joined])
+        cols.append(index[b][joined])
+    r, c = np.concatenate(rows), np.concatenate(cols)
+    graph = coo_matrix((np.ones(r.size, np.int8), (r, c)), shape=(h * w, h * w))
+    n, labels = connected_components(graph, directed=False)
+    return np.where(flat, labels.reshape(h, w), -1), n
 
 
 def seen_errors(views: np.ndarray, warper, reference: int, disparity: np.ndarray, gains: np.ndarray, *,
