@@ -737,7 +737,7 @@ def test_colour_reopening_runs_in_the_stage_by_default_and_its_settings_are_chec
     on = depth.robust_depth(views, warper, ref)
     off = depth.robust_depth(views, warper, ref, config=replace(depth.DepthConfig(), colour_reopen=False))
     assert "colour reopen" in on.timings and "colour reopen" not in off.timings
-    assert "join" not in on.timings  # step 12 is off by default
+    assert "join" in on.timings and "join" in off.timings  # step 12 runs by default
     assert np.all(on.disparity <= off.disparity)
     np.testing.assert_array_equal(on.index, plane_index(on.disparity, warper.disparities))
     for bad in ({"colour_radius": 0}, {"colour_stride": 0}, {"colour_like": 0.0}, {"colour_ratio": 0.0},
@@ -957,7 +957,7 @@ def test_plain_join_kernel_matches_its_numpy_reference(rng):
 def test_plain_join_settings_are_checked():
     from vfxstereo.errors import VfxStereoError
 
-    assert not depth.DepthConfig().join
+    assert depth.DepthConfig().join and depth.DepthConfig().join_slopes and depth.DepthConfig().join_grow > 0
     for bad in ({"join_plain": 0.0}, {"join_like": 0.0}, {"join_jump": -1.0}, {"join_anchor": -1},
                 {"join_ratio": 0.0}, {"join_floor": -1.0}, {"join_share": 1.5}, {"join_reach": -1},
                 {"join_grow": -0.5}):
