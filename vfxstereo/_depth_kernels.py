@@ -657,6 +657,15 @@ def plane_errors(views, reference, others, gains, offsets, ys, xs, disparities, 
             out[i, n] = worst if inside >= min_views else np.inf
 
 
+@njit(cache=True, inline="always")
+def _alike(a, y, x, b, yy, xx, like):
+    """Whether ``a[y, x]`` and ``b[yy, xx]`` differ by less than ``like`` in every channel."""
+    for c in range(a.shape[2]):
+        if abs(a[y, x, c] - b[yy, xx, c]) >= like:
+            return False
+    return True
+
+
 @njit(cache=True, nogil=True)
 def join_plain_flood(d, source, carried, colour, flat, like, jump, max_rounds):
     """Step 12's flood (:func:`vfxstereo.depth.join_plain`), in rounds, from the pixels that changed.
@@ -703,12 +712,7 @@ def join_plain_flood(d, source, carried, colour, flat, like, jump, max_rounds):
                     continue
                 if not (dq < d[yy, xx] - jump and dq < best[yy, xx]):
                     continue
-                alike = True
-                for c in range(C):
-                    if abs(colour[yy, xx, c] - carried[y, x, c]) >= like:
-                        alike = False
-                        break
-                if not alike:
+                if not _alike(colour, yy, xx, carried, y, x, like):
                     continue
                 best[yy, xx] = dq
                 for c in range(C):
@@ -747,7 +751,6 @@ def plain_surfaces(d, colour, flat, tolerance, like, labels):
     most ``tolerance`` and their colours by less than ``like`` in every channel.
     """
     H, W = d.shape
-    C = colour.shape[2]
     parent = np.arange(H * W).astype(np.int32)
     for y in range(H):
         for x in range(W):
@@ -759,12 +762,7 @@ def plain_surfaces(d, colour, flat, tolerance, like, labels):
                 xx = x + 1 - n
                 if yy >= H or xx >= W or not flat[yy, xx] or abs(d[y, x] - d[yy, xx]) > tolerance:
                     continue
-                alike = True
-                for c in range(C):
-                    if abs(colour[y, x, c] - colour[yy, xx, c]) >= like:
-                        alike = False
-                        break
-                if alike:
+                if _alike(colour, y, x, colour, yy, xx, like):
                     a = _root(parent, i)
                     b = _root(parent, yy * W + xx)
                     if a != b:
