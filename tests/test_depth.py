@@ -985,3 +985,10 @@ def test_views_confirm_keeps_a_move_the_views_see_and_puts_back_one_they_contrad
     np.testing.assert_array_equal(out[wrong], 1.0)
     np.testing.assert_array_equal(out[~(right | wrong)], before[~(right | wrong)])
     np.testing.assert_array_equal(depth.views_confirm(views, warper, ref, before, before), before)
+    # step 11's errors of the same map, kept and passed on, give the same answer (the stage reuses them)
+    kept = {}
+    depth.recover_thin(views, warper, ref, before, keep=kept)
+    assert set(kept) == {"gains", "errors", "seen"} and kept["errors"].shape == (views.shape[0] - 1,) + gt.shape
+    reused = depth.views_confirm(views, warper, ref, before, after, gains=kept["gains"],
+                                 before_errors=(kept["errors"], kept["seen"]))
+    np.testing.assert_array_equal(reused, out)

@@ -1124,12 +1124,15 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
                                          jump=config.colour_jump)[0]
         res.timings["colour reopen"] = time.perf_counter() - t0
         changed = True
+    kept: dict = {}  # step 11's view errors of the map, for step 12's check while the map is unchanged
     if config.thin:
         t0 = time.perf_counter()
-        thin, moved = recover_thin(views, warper, reference, res.disparity, config=config)
+        thin, moved = recover_thin(views, warper, reference, res.disparity, config=config,
+                                   keep=kept if config.join and config.join_check else None)
         if moved.any():
             res.disparity = thin
             changed = True
+            kept.clear()
         res.timings["thin"] = time.perf_counter() - t0
     if config.join:
         t0 = time.perf_counter()
@@ -1139,8 +1142,11 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
                                    slopes=config.join_slopes)
         if moved.any() and config.join_check:
             joined = views_confirm(views, warper, reference, res.disparity, joined, jitter=config.reopen_jitter,
-                                   ratio=config.join_ratio, floor=config.join_floor, share=config.join_share)
+                                   ratio=config.join_ratio, floor=config.join_floor, share=config.join_share,
+                                   gains=kept.get("gains"),
+                                   before_errors=(kept["errors"], kept["seen"]) if kept else None)
             moved = joined != res.disparity
+        kept.clear()
         if moved.any():
             res.disparity = joined
             changed = True
@@ -1581,7 +1587,8 @@ THIN_CHUNK = 65536
 
 
 def recover_thin(views: np.ndarray, warper, reference: int, disparity: np.ndarray, *,
-                 config: DepthConfig | None = None, gains: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+                 config: DepthConfig | None = None, gains: np.ndarray | None = None,
+                 keep: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Step 11: bring back thin near structures the map lost (``DepthConfig.thin``).
 
     A grille's bar or a wire a few px wide over a textured background is outvoted in the census window and the
@@ -1597,7 +1604,9 @@ def recover_thin(views: np.ndarray, warper, reference: int, disparity: np.ndarra
     wins where ``e_own > thin_ratio * best + thin_floor``. Groups of such pixels are kept when they are thin
     (``thin_width``) or mostly unique (``thin_unique``, ``thin_share``), and not smaller than ``thin_size``.
     Only rectified rigs with ``thin_views`` other views on both sides; otherwise nothing moves.
-    Returns ``(disparity, moved)``; the input is not modified.
+    Returns ``(disparity, moved)``; the input is not modified. ``keep``, if given, receives the ``gains`` and
+    :func:`seen_errors` (``errors``, ``seen``) of the input map where they were computed, for
+    :func:`views_confirm` to reuse while the map stays as it is.
     """
     from scipy import ndimage
 
@@ -1616,6 +1625,8 @@ def recover_thin(views: np.ndarray, warper, reference: int, disparity: np.ndarra
     d = np.asarray(warper.disparities, np.float64)
     gains = view_gains(views, warper, reference, d0) if gains is None else np.asarray(gains, np.float32)
     errors, seen = seen_errors(views, warper, reference, d0, gains, jitter=config.reopen_jitter)
+    if keep is not None:
+        keep.update(gains=gains, errors=errors, seen=seen)
     sides = np.array([side[k] for k in others])
     both = seen[sides < 0].any(axis=0) & seen[sides > 0].any(axis=0)
     own = np.where(seen, errors, np.inf).min(axis=0)
@@ -1834,7 +1845,7 @@ def seen_errors(views: np.ndarray, warper, reference: int, disparity: np.ndarray
 
 def views_confirm(views: np.ndarray, warper, reference: int, before: np.ndarray, after: np.ndarray, *,
                   gains: np.ndarray | None = None, jitter: float = 0.5, ratio: float = 4.0, floor: float = 0.002,
-                  share: float = 0.1) -> np.ndarray:
+                  share: float = 0.1, before_errors: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """``after`` with the groups of moved pixels the views contradict put back to ``before``.
 
     A group (8-connected pixels where the maps differ) is contradicted where more than ``share`` of its pixels
@@ -1842,7 +1853,8 @@ def views_confirm(views: np.ndarray, warper, reference: int, before: np.ndarray,
     (least over those views) above ``ratio`` times the error at their old depth (least over the views that see
     them there; 0 where none does) plus ``floor``. A plain surface moved behind a near one it is not part of
     passes (the views see plain colour there too); one moved where the views see its edge, or another surface,
-    does not.
+    does not. ``before_errors``: :func:`seen_errors` of ``before`` with these ``gains`` and ``jitter``, where
+    they are known already (:func:`recover_thin`'s ``keep``).
     """
     from scipy import ndimage
 
@@ -1855,7 +1867,8 @@ def views_confirm(views: np.ndarray, warper, reference: int, before: np.ndarray,
         return after
     views = np.asarray(views, np.float32)
     gains = view_gains(views, warper, reference, before) if gains is None else np.asarray(gains, np.float32)
-    e0, s0 = seen_errors(views, warper, reference, before, gains, jitter=jitter)
+    e0, s0 = seen_errors(views, warper, reference, before, gains, jitter=jitter) if before_errors is None \
+        else before_errors
     e1, s1 = seen_errors(views, warper, reference, after, gains, jitter=jitter)
     old = np.where(s0, e0, np.inf).min(axis=0)
     new = np.where(s1, e1, np.inf).min(axis=0)
