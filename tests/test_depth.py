@@ -992,3 +992,68 @@ def test_views_confirm_keeps_a_move_the_views_see_and_puts_back_one_they_contrad
     reused = depth.views_confirm(views, warper, ref, before, after, gains=kept["gains"],
                                  before_errors=(kept["errors"], kept["seen"]))
     np.testing.assert_array_equal(reused, out)
+
+
+def _board_with_a_claiming_edge(rng, *, board_depth=0.0, ridge_rows=40, dots=False):
+    """(disparity, colour, board): a plain board in the top-left corner (rows 0-39, columns 0-49) over a textured
+    wall at d = 2. The map put the board's plain interior at ``board_depth`` (the flat-surface bias) and matched its
+    right edge, the column just past the plain pixels (x = 49), at the board's true depth, 12, on ``ridge_rows``
+    rows; the horizontal bottom edge took the wall's depth. ``dots``: dark specks every 6 px inside the board (a
+    speckled surface, not a plain one). ``board``: the board's plain pixels."""
+    h, w = 64, 120
+    colour = rng.uniform(0.1, 0.9, (h, w, 3)).astype(np.float32)
+    colour[:40, :50] = (0.66, 0.58, 0.46)
+    if dots:
+        colour[3:36:6, 3:46:6] = (0.1, 0.1, 0.1)
+    d = np.full((h, w), 2.0, np.float32)
+    d[:38, :48] = board_depth
+    d[:ridge_rows, 49] = 12.0
+    board = np.zeros((h, w), bool)
+    board[:40, :50] = True
+    board &= depth.local_deviation(colour.mean(axis=-1) * 255.0, 5) < 3.0
+    return d, colour, board
+
+
+def test_a_plain_board_takes_the_depth_of_the_edge_that_claims_it(rng):
+    d, colour, board = _board_with_a_claiming_edge(rng)
+    assert board.sum() == 38 * 48
+    ridge, side, behind = depth.edge_ridges(d, depth.local_deviation(colour.mean(axis=-1) * 255.0, 5) < 3.0)
+    assert ridge[:38, 49].all() and (side[:38, 49] == 1).all() and np.all(behind[:38, 49] == 2.0)
+    assert ridge.sum() == 38  # the rows with plain board beside the edge; no other pixel
+    out, moved = depth.own_edges(d, colour)
+    np.testing.assert_array_equal(moved, board)  # the board's plain pixels, and nothing else
+    np.testing.assert_array_equal(out[board], 12.0)
+    np.testing.assert_array_equal(out[~board], d[~board])
+
+
+@pytest.mark.parametrize("case", ["thin structure", "short edge", "speckled"])
+def test_edge_ownership_leaves_a_region_the_edge_does_not_claim(rng, case):
+    """A region at the depth of the texture beyond the edge (a plain part of that wall, seen past a thin near
+    line), an edge on fewer than ``rows`` rows, and a speckled region stay where they are."""
+    kw = {"thin structure": {"board_depth": 2.0}, "short edge": {"ridge_rows": 6}, "speckled": {"dots": True}}[case]
+    d, colour, _ = _board_with_a_claiming_edge(rng, **kw)
+    out, moved = depth.own_edges(d, colour)
+    assert not moved.any()
+    np.testing.assert_array_equal(out, d)
+    if case == "short edge":  # the same edge on 8 rows claims the board
+        d8, colour8, board8 = _board_with_a_claiming_edge(rng, ridge_rows=8)
+        assert depth.own_edges(d8, colour8)[1].sum() == board8.sum()
+
+
+def test_edge_ridges_kernel_matches_its_numpy_reference(rng):
+    d, colour, _ = _board_with_a_claiming_edge(rng)
+    cases = [(d, depth.local_deviation(colour.mean(axis=-1) * 255.0, 5) < 3.0)]
+    for _ in range(3):  # random maps over random plain and textured blocks
+        flat = np.kron(rng.random((12, 16)) < 0.5, np.ones((5, 7), bool))
+        flat &= rng.random(flat.shape) < 0.95
+        dr = np.kron(rng.integers(0, 8, (12, 16)), np.ones((5, 7))).astype(np.float32)
+        dr += rng.normal(0, 0.4, dr.shape).astype(np.float32)
+        cases.append((dr, flat))
+    for dm, flat in cases:
+        got = depth.edge_ridges(dm, flat)
+        want = depth.edge_ridges_reference(dm, flat)
+        np.testing.assert_array_equal(got[0], want[0])
+        np.testing.assert_array_equal(got[1], want[1])
+        np.testing.assert_allclose(got[2], want[2], rtol=1e-6, equal_nan=True)
+        assert want[0].any() or dm is not d
+    assert sum(int(depth.edge_ridges_reference(dm, f)[0].sum()) for dm, f in cases[1:]) > 20

@@ -157,3 +157,30 @@ def test_a_stereo_pair_keeps_strands_that_cross_the_frame_edge(shared_data):
     assert np.mean((ours - truth) ** 2) < np.mean((key - truth) ** 2)
     edge = np.s_[:200, :12]  # the strip along the left edge under the strands
     assert np.mean(np.abs(stack.disparity_map(0.5)[edge] - s.gt_disparity()[edge]) <= 1.0) > 0.9
+
+
+@pytest.mark.data
+def test_a_stereo_pair_puts_a_plain_board_at_the_frame_corner_in_front(shared_data):
+    """boards_rocks as a stereo rig: the plain board in the top-left corner has no texture inside and no strip
+    the right view cannot see, and the flat-surface bias put it behind everything (under 5 % of it right, and
+    the full-card comp lost to the SGBM key). Its right edge, matched at its depth against the farther troll
+    and rocks, claims it (``DepthConfig.own``: measured 100 % of its plain pixels right, +24 dB on that row)."""
+    from dataclasses import replace
+
+    from vfxstereo import depth
+    from vfxstereo.geometry import Camera
+    from vfxstereo.warp import Warper
+
+    s = scenes.build("boards_rocks", K=2, data_dir=shared_data)
+    views = s.views()
+    gt = s.gt_disparity(0.5)
+    warper = Warper(Camera.from_positions(s.positions, s.reference), np.arange(0.0, 16.25, 0.5), gt.shape)
+    board = np.abs(gt - 12.8) < 0.3
+    board[:, 150:] = False  # the pillar is at 10, the board the only surface near 12.8 on the left
+    assert board.sum() > 10000
+    on = depth.robust_depth(views, warper, s.reference).disparity
+    off = depth.robust_depth(views, warper, s.reference, config=replace(depth.DepthConfig(), own=False)).disparity
+    right = {k: float(np.mean(np.abs(d[board] - gt[board]) <= 1.0)) for k, d in (("on", on), ("off", off))}
+    assert right["off"] < 0.05 and right["on"] > 0.9, right
+    rest = ~board
+    assert np.mean(np.abs(on[rest] - gt[rest]) <= 1.0) >= np.mean(np.abs(off[rest] - gt[rest]) <= 1.0) - 0.002

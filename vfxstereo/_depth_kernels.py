@@ -784,3 +784,66 @@ def plain_surfaces(d, colour, flat, tolerance, like, labels):
             else:
                 labels[y, x] = labels[r // W, r % W]
     return n
+
+
+# --------------------------------------------------------------------------------------------------------
+# Step 13: edges that claim a plain region
+
+
+@njit(cache=True, parallel=True, nogil=True)
+def edge_ridges(d, flat, radius, share, b0, b1, jump, far, ridge, side, behind):
+    """:func:`vfxstereo.depth.edge_ridges` into ``ridge`` (bool), ``side`` (int8) and ``behind`` (float32, NaN off
+    the ridge), which the caller fills with False, 0 and NaN; :func:`vfxstereo.depth.edge_ridges_reference` is
+    its numpy version."""
+    H, W = d.shape
+    for y in prange(H):
+        vals = np.empty(b1 - b0 + 1, np.float32)
+        for x in range(W):
+            if flat[y, x]:
+                continue
+            fl = False  # plain within 3 px to the left, and to the right; texture within 3 px on each side
+            fr = False
+            tl = False
+            tr = False
+            for k in range(1, 4):
+                if x - k >= 0:
+                    if flat[y, x - k]:
+                        fl = True
+                    else:
+                        tl = True
+                if x + k < W:
+                    if flat[y, x + k]:
+                        fr = True
+                    else:
+                        tr = True
+            if fl and not fr and tr:
+                s = 1
+            elif fr and not fl and tl:
+                s = -1
+            else:
+                continue
+            dv = d[y, x]
+            same = 0
+            count = 0
+            for yy in range(max(y - radius, 0), min(y + radius + 1, H)):
+                for xx in range(max(x - radius, 0), min(x + radius + 1, W)):
+                    if not flat[yy, xx]:
+                        count += 1
+                        if abs(d[yy, xx] - dv) <= 1.0:
+                            same += 1
+            if not same < share * max(count, 1):
+                continue
+            nb = 0
+            nfar = 0
+            for k in range(b0, b1 + 1):
+                xx = x + s * k
+                if xx < 0 or xx >= W or flat[y, xx]:
+                    continue
+                vals[nb] = d[y, xx]
+                nb += 1
+                if d[y, xx] < dv - jump:
+                    nfar += 1
+            if nb >= 3 and nfar >= far * nb:
+                ridge[y, x] = True
+                side[y, x] = s
+                behind[y, x] = np.median(vals[:nb])

@@ -58,6 +58,12 @@ This stage gives the layered model a dependable front surface instead, from clas
    where the moves outnumber half the surface that had the depth, and wherever the views do not contradict
    the move (:func:`views_confirm`): the plain wall beside a textured subject, or between a grille's bars, that
    the window and SGM gave the subject's depth.
+13. Edge ownership (``own``, :func:`own_edges`), on the whole plate: the reverse of step 12. A plain region takes
+   the depth of a textured edge beside it that is nearer than the region and than the texture beyond the edge
+   (the colour step moves with the plain side, so it belongs to it), where that edge runs over 8 rows or more,
+   the region is solid and not at the depth of the texture beyond, and the views do not contradict the move:
+   a plain board in front that the flat-surface bias put at the back, where no half-occluded strip tells
+   (a stereo pair whose board meets the frame or hides nothing the other view sees).
 
 Measured (``benchmarks/middlebury.py``, all 31 sets, one published px apart, the GT's view as reference):
 0.47x OpenCV SGBM's bad pixels on average (9.4 % against 19.5 %), at most 0.88x (Midd1). Per set: tsukuba
@@ -532,6 +538,26 @@ class DepthConfig:
     """:func:`views_confirm`'s ``floor`` (colour^2)."""
     join_share: float = 0.1
     """:func:`views_confirm`'s ``share``."""
+    own: bool = True
+    """Step 13 (:func:`own_edges`), on the whole plate: a plain region takes the depth of a textured edge beside it
+    that is nearer than the region and than the texture beyond the edge (the edge moves with the plain side, so it
+    belongs to it), where the edge runs over at least ``own_rows`` rows, the region so moved is solid
+    (``own_solid``) and the texture beyond the edge is not at the region's own depth (``own_margin``); each
+    group of moved pixels is then checked against the views as step 12's are. It is aimed at a plain board in
+    front, at a frame edge or over a textured background, that the flat-surface bias put at the back: nothing in
+    its interior says where it is, and on a stereo pair no half-occluded strip does either, but its edge against
+    the texture beside it is matched at the board's depth. Measured: see :func:`own_edges`."""
+    own_rows: int = 8
+    """Step 13 moves a region only where the edges that claim it lie on at least this many rows."""
+    own_cover: float = 0.15
+    """... and on at least this share of the rows where the region meets texture beside it."""
+    own_solid: float = 0.9
+    """Step 13 moves a region only where it fills at least this share of its outline (holes filled): a plain
+    board, not the flat specks inside a textured surface."""
+    own_margin: float = 1.0
+    """Step 13 moves a region only where the texture beyond its claiming edges lies farther than the region's
+    own depth by more than this, or nearer (px per view step): a region at the depth of the texture beyond a
+    near line is more simply a plain part of that surface, seen past a thin near structure (a stem or a wire)."""
 
     def __post_init__(self):
         if (self.box < 1 or self.paths not in (4, 8) or self.median < 0 or self.visibility_passes < 0
@@ -561,6 +587,9 @@ class DepthConfig:
                 and self.colour_ratio > 0 and self.colour_jump >= 0):
             raise VfxStereoError("depth settings: colour_radius, colour_stride >= 1, colour_like, colour_ratio > 0, "
                                  "colour_jump >= 0")
+        if self.own_rows < 1 or not 0 <= self.own_cover <= 1 or not 0 <= self.own_solid <= 1 or self.own_margin < 0:
+            raise VfxStereoError("depth settings: own_rows >= 1, 0 <= own_cover <= 1, 0 <= own_solid <= 1, "
+                                 "own_margin >= 0")
         if not (self.join_plain > 0 and self.join_like > 0 and self.join_jump >= 0 and self.join_anchor >= 0
                 and self.join_reach >= 0 and self.join_grow >= 0 and self.join_ratio > 0 and self.join_floor >= 0
                 and 0 <= self.join_share <= 1):
@@ -1104,13 +1133,15 @@ def robust_depth(views: np.ndarray, warper, reference: int, *, config: DepthConf
 
 
 def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConfig, progress) -> DepthResult:
-    """``res`` after steps 9 (``config.reopen``; 64 px), 10 (``colour_reopen``), 11 (``thin``), 12 (``join``)."""
+    """``res`` after steps 9 (``config.reopen``; 64 px), 10 (``colour_reopen``), 11 (``thin``), 12 (``join``),
+    13 (``own``)."""
     from vfxstereo.layers import plane_index
     from vfxstereo.sweep import matching_values
 
     changed = False
     # the plate in sRGB, for steps 10 and 12's colour tests: converted once
-    colour = matching_values(views[reference], "srgb", 1.0) if config.colour_reopen or config.join else None
+    colour = (matching_values(views[reference], "srgb", 1.0) if config.colour_reopen or config.join or config.own
+              else None)
     if config.reopen and config.reopen_passes > 0 and views.shape[0] - 1 >= config.reopen_views:
         t0 = time.perf_counter()
         res.disparity = reopen_gaps(views, warper, reference, res.disparity, config=config, progress=progress)[0]
@@ -1151,6 +1182,19 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
             res.disparity = joined
             changed = True
         res.timings["join"] = time.perf_counter() - t0
+    if config.own:
+        t0 = time.perf_counter()
+        owned, moved = own_edges(res.disparity, colour, plain=config.join_plain, like=config.join_like,
+                                 jump=config.join_jump, rows=config.own_rows, cover=config.own_cover,
+                                 solid=config.own_solid, margin=config.own_margin)
+        if moved.any() and config.join_check:
+            owned = views_confirm(views, warper, reference, res.disparity, owned, jitter=config.reopen_jitter,
+                                  ratio=config.join_ratio, floor=config.join_floor, share=config.join_share)
+            moved = owned != res.disparity
+        if moved.any():
+            res.disparity = owned
+            changed = True
+        res.timings["own"] = time.perf_counter() - t0
     if changed:  # the planes of the map the steps left, once
         res.index = plane_index(res.disparity, warper.disparities)
     return res
@@ -1720,6 +1764,185 @@ def anchored(disparity: np.ndarray, textured: np.ndarray, reach: int, tolerance:
         near = ndimage.uniform_filter(support, size, mode="constant") > 0.5 / size ** 2
         out |= here & near
     return out
+
+
+WEDGE = 8
+"""Step 13 seeds its flood up to this far (px) from a ridge along the row, past the plain pixels the window already
+gave the ridge's depth."""
+
+
+def edge_ridges(disparity: np.ndarray, flat: np.ndarray, *, radius: int = 4, share: float = 0.5,
+                beyond: tuple[int, int] = (3, 12), jump: float = 1.5, far: float = 0.6
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Step 13's claiming edges: ``(ridge, side, behind)``, (H, W) bool, int8 and float32.
+
+    A ridge pixel is a textured (not ``flat``) pixel with a flat pixel within 3 px on one side of its row and
+    texture within 3 px on the other (``side``: +1 where the texture is to the right, -1 to the left), whose depth
+    less than ``share`` of the textured pixels within ``radius`` px share (within 1 px), and beyond which, ``beyond``
+    px along the row on the textured side, at least 3 pixels are textured and at least ``far`` of them lie
+    farther than it by more than ``jump``: an edge matched nearer than the texture it borders. ``behind``: the
+    median depth of those textured pixels beyond (NaN off the ridge). A numba kernel; its numpy version is
+    :func:`edge_ridges_reference`.
+    """
+    from vfxstereo import _depth_kernels
+
+    d = np.ascontiguousarray(disparity, np.float32)
+    ridge = np.zeros(d.shape, bool)
+    side = np.zeros(d.shape, np.int8)
+    behind = np.full(d.shape, np.nan, np.float32)
+    _depth_kernels.edge_ridges(d, np.ascontiguousarray(flat, bool), int(radius), float(share), int(beyond[0]),
+                               int(beyond[1]), np.float32(jump), float(far), ridge, side, behind)
+    return ridge, side, behind
+
+
+def edge_ridges_reference(disparity: np.ndarray, flat: np.ndarray, *, radius: int = 4, share: float = 0.5,
+                          beyond: tuple[int, int] = (3, 12), jump: float = 1.5, far: float = 0.6
+                          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Plain numpy :func:`edge_ridges`, the reference its kernel is tested against."""
+    d = np.asarray(disparity, np.float32)
+    flat = np.asarray(flat, bool)
+    tex = ~flat
+    H, W = d.shape
+
+    def within3(mask, step):  # mask true at x + step, x + 2 step or x + 3 step
+        out = np.zeros_like(mask)
+        for k in (1, 2, 3):
+            if step > 0:
+                out[:, :-k] |= mask[:, k:]
+            else:
+                out[:, k:] |= mask[:, :-k]
+        return out
+
+    right = within3(flat, -1) & ~within3(flat, 1) & within3(tex, 1)   # plain on the left, texture on the right
+    left = within3(flat, 1) & ~within3(flat, -1) & within3(tex, -1)
+    ys, xs = np.nonzero(tex & (right | left))
+    side = np.where(right[ys, xs], 1, -1).astype(np.int8)
+    dv = d[ys, xs]
+    same = np.zeros(len(ys), np.int32)
+    count = np.zeros(len(ys), np.int32)
+    for dy in range(-radius, radius + 1):
+        for dx in range(-radius, radius + 1):
+            yy, xx = ys + dy, xs + dx
+            inside = (yy >= 0) & (yy < H) & (xx >= 0) & (xx < W)
+            yy, xx = np.clip(yy, 0, H - 1), np.clip(xx, 0, W - 1)
+            t = inside & tex[yy, xx]
+            count += t
+            same += t & (np.abs(d[yy, xx] - dv) <= 1.0)
+    steps = np.arange(beyond[0], beyond[1] + 1)
+    bx = xs[:, None] + side[:, None] * steps[None, :]
+    binside = (bx >= 0) & (bx < W)
+    bx = np.clip(bx, 0, W - 1)
+    bt = binside & tex[ys[:, None], bx]
+    bd = np.where(bt, d[ys[:, None], bx], np.nan)
+    nb = bt.sum(axis=1)
+    nfar = (bt & (bd < dv[:, None] - jump)).sum(axis=1)
+    ok = (same < share * np.maximum(count, 1)) & (nb >= 3) & (nfar >= far * np.maximum(nb, 1))
+    ridge = np.zeros((H, W), bool)
+    ridge[ys[ok], xs[ok]] = True
+    sides = np.zeros((H, W), np.int8)
+    sides[ys[ok], xs[ok]] = side[ok]
+    behind = np.full((H, W), np.nan, np.float32)
+    if ok.any():
+        with np.errstate(all="ignore"):
+            behind[ys[ok], xs[ok]] = np.nanmedian(bd[ok], axis=1)
+    return ridge, sides, behind
+
+
+def own_edges(disparity: np.ndarray, colour: np.ndarray, *, plain: float = 3.0, like: float = 0.04,
+              jump: float = 1.5, rows: int = 8, cover: float = 0.15, solid: float = 0.9, margin: float = 1.0
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """Step 13: a plain region takes the depth of a textured edge beside it that only the plain side explains.
+
+    Returns ``(disparity, moved)``. The flat-surface bias puts a plain surface at the back; a plain board in
+    front has no texture inside to say otherwise, and where its left edge is the frame (or, on a stereo pair, its
+    edges hide nothing the other view sees) no half-occluded strip does either. Its edges against the texture
+    beside it do: the colour step moves with the board, so the window matches it at the board's depth, nearer
+    than the board's interior in the map and nearer than the texture beyond it, which has its own, farther
+    depth (:func:`edge_ridges`). Such a ridge can only belong to the plain side. From the plain pixels within
+    3 px of a ridge on its plain side, the ridge's depth floods (:func:`join_plain`'s kernel, towards nearer
+    depths) over plain pixels (``plain``) whose colour stays within ``like`` of the colour it started from and
+    that lie farther by more than ``jump``. A group of moved pixels (8-connected) stays only where
+
+    * its ridges lie on at least ``rows`` rows (an edge, not a speck), and on at least ``cover`` of the rows where
+      it has texture within 3 px beside it (a board whose edge claims it, not a wall behind a furry subject,
+      claimed by a few strands along a long outline);
+    * it fills at least ``solid`` of its outline with the holes filled (a plain surface, not the flat specks of a
+      textured one);
+    * the texture beyond its ridges (their median ``behind``) is not within ``margin`` of the group's own depth
+      (the median of the map over it): a plain region at the depth of the texture beyond a near line is more
+      simply a plain part of that surface, seen past a thin near structure -- a stem, a wire, a strand of hair.
+    """
+    from scipy import ndimage
+
+    from vfxstereo import _depth_kernels
+
+    d0 = np.ascontiguousarray(disparity, np.float32)
+    col = np.ascontiguousarray(colour, np.float32)
+    flat = local_deviation(col.mean(axis=-1) * 255.0, 5) < plain
+    ridge, sides, behind = edge_ridges(d0, flat, jump=jump)
+    moved = np.zeros(d0.shape, bool)
+    if not ridge.any():
+        return d0.copy(), moved
+    H, W = d0.shape
+    # seeds: on the ridge's row, on its plain side, the first plain pixel farther than it by more than jump,
+    # within 3 px of the ridge or past plain pixels the window already gave the ridge's depth (within jump)
+    neg = -d0  # the kernel floods towards smaller values: nearer depths, negated
+    source = np.zeros(d0.shape, bool)
+    seed_behind = np.full(d0.shape, np.nan, np.float32)
+    ys, xs = np.nonzero(ridge)
+    step = -sides[ys, xs].astype(np.int64)
+    dr = d0[ys, xs]
+    going = np.ones(len(ys), bool)
+    for k in range(1, WEDGE + 1):
+        x = xs + step * k
+        going &= (x >= 0) & (x < W)
+        x = np.clip(x, 0, W - 1)
+        plain_here = flat[ys, x]
+        going &= plain_here | (k <= 3)
+        seed = going & plain_here & (d0[ys, x] < dr - jump)
+        y, sx, r = ys[seed], x[seed], xs[seed]
+        neg[y, sx] = np.minimum(neg[y, sx], -d0[y, r])
+        seed_behind[y, sx] = behind[y, r]
+        source[y, sx] = True
+        going &= ~seed & (~plain_here | (np.abs(d0[ys, x] - dr) <= jump))
+    if not source.any():
+        return d0.copy(), moved
+    carried = col.copy()
+    _depth_kernels.join_plain_flood(neg, source, carried, col, flat, np.float32(like), np.float32(jump), 0)
+    d = -neg
+    moved = d != d0
+    labels, n = ndimage.label(moved, structure=np.ones((3, 3), bool))
+    if n == 0:
+        return d0.copy(), moved
+    sy, sx = np.nonzero(source & moved)
+    nrows = np.bincount(np.unique(labels[sy, sx].astype(np.int64) * H + sy) // H, minlength=n + 1)
+    # the rows where a group meets texture within 3 px along the row
+    tex = ~flat
+    beside = np.zeros_like(tex)
+    for k in (1, 2, 3):
+        beside[:, :-k] |= tex[:, k:]
+        beside[:, k:] |= tex[:, :-k]
+    by, bx = np.nonzero(moved & beside)
+    outline = np.bincount(np.unique(labels[by, bx].astype(np.int64) * H + by) // H, minlength=n + 1)
+    index = np.arange(1, n + 1)
+    candidates = index[(nrows[1:] >= rows) & (nrows[1:] >= cover * outline[1:])]
+    keep = np.zeros(n + 1, bool)
+    if len(candidates):
+        own_depth = np.full(n + 1, np.nan, np.float32)  # the map's depth over what moved
+        own_depth[candidates] = ndimage.median(d0, labels, candidates)
+        beyond = np.full(n + 1, np.nan, np.float32)  # the texture beyond the group's ridges
+        sb = source & moved & np.isfinite(seed_behind)
+        with np.errstate(all="ignore"):
+            beyond[candidates] = ndimage.median(np.where(sb, seed_behind, 0.0), np.where(sb, labels, 0), candidates)
+        objects = ndimage.find_objects(labels)
+        for i in candidates:
+            group = labels[objects[i - 1]] == i
+            keep[i] = (group.sum() >= solid * ndimage.binary_fill_holes(group).sum() and np.isfinite(beyond[i])
+                       and abs(beyond[i] - own_depth[i]) > margin)
+    back = moved & ~keep[labels]
+    d[back] = d0[back]
+    moved &= ~back
+    return d.astype(np.float32), moved
 
 
 def join_plain(disparity: np.ndarray, colour: np.ndarray, *, plain: float = 3.0, like: float = 0.04,
