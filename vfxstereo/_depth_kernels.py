@@ -792,9 +792,11 @@ def plain_surfaces(d, colour, flat, tolerance, like, labels):
 
 @njit(cache=True, parallel=True, nogil=True)
 def edge_ridges(d, flat, radius, share, b0, b1, jump, far, ridge, side, behind):
-    """:func:`vfxstereo.depth.edge_ridges` into ``ridge`` (bool), ``side`` (int8) and ``behind`` (float32, NaN off
-    the ridge), which the caller fills with False, 0 and NaN; :func:`vfxstereo.depth.edge_ridges_reference` is
-    its numpy version."""
+    """Step 13's claiming edges (:func:`vfxstereo.depth.edge_ridges`), one row per thread.
+
+    Fills ``ridge`` (bool), ``side`` (int8) and ``behind`` (float32, NaN off the ridge), which the caller sets to
+    False, 0 and NaN; :func:`vfxstereo.depth.edge_ridges_reference` is its numpy version.
+    """
     H, W = d.shape
     for y in prange(H):
         vals = np.empty(b1 - b0 + 1, np.float32)

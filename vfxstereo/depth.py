@@ -1133,8 +1133,7 @@ def robust_depth(views: np.ndarray, warper, reference: int, *, config: DepthConf
 
 
 def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConfig, progress) -> DepthResult:
-    """``res`` after steps 9 (``config.reopen``; 64 px), 10 (``colour_reopen``), 11 (``thin``), 12 (``join``),
-    13 (``own``)."""
+    """``res`` after the whole-plate steps 9-13 (``reopen``, ``colour_reopen``, ``thin``, ``join``, ``own``)."""
     from vfxstereo.layers import plane_index
     from vfxstereo.sweep import matching_values
 
