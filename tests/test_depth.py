@@ -1057,3 +1057,12 @@ def test_edge_ridges_kernel_matches_its_numpy_reference(rng):
         np.testing.assert_allclose(got[2], want[2], rtol=1e-6, equal_nan=True)
         assert want[0].any() or dm is not d
     assert sum(int(depth.edge_ridges_reference(dm, f)[0].sum()) for dm, f in cases[1:]) > 20
+
+
+def test_edge_ownership_is_on_by_default_and_its_settings_are_checked():
+    from vfxstereo.errors import VfxStereoError
+
+    assert depth.DepthConfig().own
+    for bad in ({"own_rows": 0}, {"own_cover": 1.5}, {"own_solid": -0.1}, {"own_margin": -1.0}):
+        with pytest.raises(VfxStereoError):
+            depth.DepthConfig(**bad)

@@ -546,7 +546,41 @@ class DepthConfig:
     group of moved pixels is then checked against the views as step 12's are. It is aimed at a plain board in
     front, at a frame edge or over a textured background, that the flat-surface bias put at the back: nothing in
     its interior says where it is, and on a stereo pair no half-occluded strip does either, but its edge against
-    the texture beside it is matched at the board's depth. Measured: see :func:`own_edges`."""
+    the texture beside it is matched at the board's depth.
+
+    Added in session 32, on by default. Measured on the z-key benchmark (frame / band dB, rows losing to the
+    SGBM key over the frame / on the band), against the default before it:
+
+    * tuning rows (230): 29.20 / 22.67 -> 29.63 / 22.80, losing 16 / 10 -> 9 / 7. Only two scenes move:
+      boards_rocks K = 2 +11.0 / +4.1 (its top-left board 0 -> 100 % right: 15427 px claimed by its right
+      edge, which the map had at 13.0 against the board's true 12.8 while the board's interior was at 0.75 and
+      the troll and rocks beside it at 7; 8 losing rows now win) and rabbit_cream_board K = 2 +5.2 / +0.9 (its
+      plain board in front, 4805 px, 90 % right; the full-card row -2.1 / -0.7 -> +13.1 / +3.5 against the SGBM
+      key); every other tuning row is unchanged;
+    * held-out rows (48, scored once): 31.84 / 28.39 -> 31.97 / 28.39; no row changes side against the SGBM
+      key. One held-out scene moves: fur_pillar_monopoly, K = 2 +0.3 / 0.0 (162 px, 85 % right) and K = 5 +0.9
+      / +0.0 on average (1972 px claimed wrongly, 79 % right before; one row -0.4 / -0.05, another +5.4 / +0.2);
+    * Middlebury (all 31 sets, depth only): unchanged, set by set (9.18 % from all views, 14.05 % from the
+      classic pair): nothing there is claimed.
+
+    The guards, each measured on the stored maps of the 25 tuning scenes (both rigs) and the 31 Middlebury
+    sets, are what keep the step to those boards. Session 31's probe had none of them, and the walls of
+    doll_plaster, fur_grey_wall, rabbit_cream_board, sheep_duck_wall, koala_slope and wicker_wall (17000-35000
+    px each) came forward behind the strands of hair and fur along their outline. One at a time, against the
+    default:
+
+    * without the outline test (``own_cover`` 0): plush_wall K = 2's wall, 63839 px, claimed by 13 rows of fur
+      strands along a 226-row outline (the map's right share 0.56 -> 0.45);
+    * without the test on the texture beyond (``own_margin`` 0): sphere_plant K = 5's backdrop (4777 px, past
+      the plant's stems), 1114 px between ostrich_grille K = 5's bars, small patches of beanie_grille and
+      shelf_grille;
+    * ``own_rows`` 4 instead of 8: 80 and 102 px between beanie_grille's and ostrich_grille's bars;
+    * ``own_solid``: with the outline test it changes nothing measured; without both, Middlebury Wood2's cork
+      (speckled: its flat pixels fill 74 % of their outline) comes forward, 4.0 -> 5.9 % bad.
+
+    What it does not reach: a board whose interior the bias put at the depth of the texture beyond its edge
+    (a board over a wall of one depth: the step cannot tell it from a plain part of that wall seen past a
+    thin near line, and leaves it)."""
     own_rows: int = 8
     """Step 13 moves a region only where the edges that claim it lie on at least this many rows."""
     own_cover: float = 0.15

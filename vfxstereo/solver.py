@@ -55,8 +55,9 @@ _ROBUST_STACK_BYTES_PER_CELL = 16
 _ROBUST_LAYER_BYTES_PER_PIXEL = 384
 _ROBUST_BYTES_PER_PIXEL_PER_VIEW = 32
 # The depth stage's whole-plate steps after the strips (step 12's flood, plain surfaces and views check: measured
-# at 4096x2160 as the peak RSS they add, 52 B/px for the join, 92 and 147 B/px for the check with K = 2 and 5):
-# they run between the strips' volumes and the stack, so they count in the maximum, not on top.
+# at 4096x2160 as the peak RSS they add, 52 B/px for the join, 92 and 147 B/px for the check with K = 2 and 5;
+# step 13's edge ownership 91 B/px on a plate of plain and textured stripes, then the same check): they run one
+# after another, between the strips' volumes and the stack, so they count in the maximum, not on top.
 _JOIN_BYTES_PER_PIXEL = 100
 _JOIN_BYTES_PER_PIXEL_PER_VIEW = 12
 
