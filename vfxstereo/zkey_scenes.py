@@ -340,8 +340,8 @@ HELD_OUT = ("fur_pillar_monopoly", "petals_grille_plastic", "duck_monster_baby",
 built in session 27 before any of its measurements and scored at its end twice: with the default as it was, then
 with the one change that session kept (the depth stage's colour reopening, chosen on the tuning scenes).
 ``panel_hair_books`` and ``sign_plant_aloe`` were built in session 32 after its change (the depth stage's edge
-ownership) was chosen, and scored once, with it on and off side by side: it changed none of their rows. A scene used to find why a
-change lost moves to :data:`RETIRED`."""
+ownership) was chosen, and scored once, with it on and off side by side: it changed none of their rows. A scene
+used to find why a change lost moves to :data:`RETIRED`."""
 
 RETIRED = ("koala_slope", "artichoke_books", "flowers_fence", "doll_plaster", "ostrich_grille", "witch_monster",
            "bear_pillar", "shelf_grille", "two_soft_pots", "lattice_leaves", "hair_shelves", "sheep_duck_wall",
@@ -806,8 +806,9 @@ def leaves_wire_bowling(K: int = 5, data_dir=None) -> Scene:
 
 @_register
 def panel_hair_books(K: int = 5, data_dir=None) -> Scene:
-    """(held out) A plain cream panel at the right frame edge, long hair (GT08), a plain shelf board across the
-    frame, the Books photo on a slanted wall.
+    """(held out) A plain panel at the right frame edge, long hair (GT08), a shelf, the Books photo on a wall.
+
+    The panel is cream, the shelf a plain board across the whole frame, the wall slanted.
 
     Built in session 32 before any of its measurements, after the depth stage's edge ownership (step 13) was
     chosen on boards_rocks and rabbit_cream_board: a plain near surface at the other frame edge (its left edge
@@ -830,8 +831,9 @@ def panel_hair_books(K: int = 5, data_dir=None) -> Scene:
 
 @_register
 def sign_plant_aloe(K: int = 5, data_dir=None) -> Scene:
-    """(held out) A plain dark sign inside the frame, in front of a potted plant (GT13), a plain light wall strip
-    beside the Aloe photo.
+    """(held out) A plain dark sign inside the frame, a potted plant (GT13), a plain wall strip, the Aloe photo.
+
+    The sign is in front of the plant; the light wall strip lies beside the photo, behind both.
 
     Built in session 32 before any of its measurements: a plain near board with all four edges inside the
     frame, overlapping a soft subject with holes (leaves), over a far plain wall and a textured photo.
