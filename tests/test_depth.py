@@ -1066,3 +1066,21 @@ def test_edge_ownership_is_on_by_default_and_its_settings_are_checked():
     for bad in ({"own_rows": 0}, {"own_cover": 1.5}, {"own_solid": -0.1}, {"own_margin": -1.0}):
         with pytest.raises(VfxStereoError):
             depth.DepthConfig(**bad)
+
+
+def test_a_claim_that_floods_over_another_edges_seeds_does_not_count_their_rows(rng):
+    """A 2-row edge at d = 15 on the board's left side floods the whole board, over the seeds of its right edge
+    (d = 12, 38 rows): those rows no longer support any claim, and the 2-row one alone is too short."""
+    d, colour, board = _board_with_a_claiming_edge(rng)
+    colour[:, :10] = rng.uniform(0.1, 0.9, (64, 10, 3))  # texture left of the board
+    d[:, :10] = 2.0
+    board &= depth.local_deviation(colour.mean(axis=-1) * 255.0, 5) < 3.0
+    d[20:22, 10] = 15.0  # the short edge, nearer than the board's own
+    ridge = depth.edge_ridges(d, depth.local_deviation(colour.mean(axis=-1) * 255.0, 5) < 3.0)[0]
+    assert ridge[20:22, 10].all() and ridge[:38, 49].all()
+    out, moved = depth.own_edges(d, colour)
+    assert not moved.any()
+    # without the short edge the board is claimed at 12
+    d[20:22, 10] = 2.0
+    out, moved = depth.own_edges(d, colour)
+    np.testing.assert_array_equal(moved, board)

@@ -1894,7 +1894,8 @@ def own_edges(disparity: np.ndarray, colour: np.ndarray, *, plain: float = 3.0, 
     depth (:func:`edge_ridges`). Such a ridge can only belong to the plain side. From the plain pixels within
     3 px of a ridge on its plain side, the ridge's depth floods (:func:`join_plain`'s kernel, towards nearer
     depths) over plain pixels (``plain``) whose colour stays within ``like`` of the colour it started from and
-    that lie farther by more than ``jump``. A group of moved pixels (8-connected) stays only where
+    that lie farther by more than ``jump``. A group of moved pixels (4-connected where their new depths differ by
+    at most 1 px: one claim) stays only where
 
     * its ridges lie on at least ``rows`` rows (an edge, not a speck), and on at least ``cover`` of the rows where
       it has texture within 3 px beside it (a board whose edge claims it, not a wall behind a furry subject,
@@ -1940,13 +1941,15 @@ def own_edges(disparity: np.ndarray, colour: np.ndarray, *, plain: float = 3.0, 
         going &= ~seed & (~plain_here | (np.abs(d0[ys, x] - dr) <= jump))
     if not source.any():
         return d0.copy(), moved
+    seeded = -neg  # what each seed claims
     carried = col.copy()
     _depth_kernels.join_plain_flood(neg, source, carried, col, flat, np.float32(like), np.float32(jump), 0)
     d = -neg
     moved = d != d0
-    labels, n = ndimage.label(moved, structure=np.ones((3, 3), bool))
-    if n == 0:
-        return d0.copy(), moved
+    source &= d == seeded  # a seed a nearer claim flooded over supports that claim no longer
+    # groups: moved pixels 4-connected where their new depths differ by at most 1 px (one claim each)
+    labels, n = plain_surfaces(d, col, moved, tolerance=1.0, like=2.0)
+    labels += 1
     sy, sx = np.nonzero(source & moved)
     nrows = np.bincount(np.unique(labels[sy, sx].astype(np.int64) * H + sy) // H, minlength=n + 1)
     # the rows where a group meets texture within 3 px along the row
