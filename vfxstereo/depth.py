@@ -1943,7 +1943,9 @@ def own_edges(disparity: np.ndarray, colour: np.ndarray, *, plain: float = 3.0, 
         going &= plain_here | (k <= 3)
         seed = going & plain_here & (d0[ys, x] < dr - jump)
         y, sx, r = ys[seed], x[seed], xs[seed]
-        neg[y, sx] = np.minimum(neg[y, sx], -d0[y, r])
+        nearer = -dr[seed] < neg[y, sx]  # where two ridges seed one pixel, the nearer claim (and its texture) holds
+        y, sx, r = y[nearer], sx[nearer], r[nearer]
+        neg[y, sx] = -d0[y, r]
         seed_behind[y, sx] = behind[y, r]
         source[y, sx] = True
         going &= ~seed & (~plain_here | (np.abs(d0[ys, x] - dr) <= jump))
