@@ -843,7 +843,7 @@ def test_plain_join_gives_a_grown_strip_the_walls_depth_and_moves_nothing_else(r
     out, moved = depth.join_plain(d, colour, anchor=8)
     strip = np.zeros(d.shape, bool)
     strip[:, 22:48] = True
-    strip &= depth.local_deviation(colour.mean(axis=-1) * 255.0, 5) < 3.0  # the strip's plain pixels
+    strip &= depth.plain_pixels(colour)  # the strip's plain pixels
     assert strip.sum() > 0.9 * 64 * 24
     np.testing.assert_array_equal(out[strip], 2.0)
     np.testing.assert_array_equal(moved, strip)  # the boards, the subject and the d = 5 / d = 0 pair stay
@@ -859,7 +859,7 @@ def test_plain_join_gives_a_grown_strip_the_walls_depth_and_moves_nothing_else(r
 def test_plain_join_keeps_a_strip_smaller_than_its_wall_and_puts_back_one_larger(rng):
     """``grow``: a plain surface takes a depth from a flood only where most of it already had that depth."""
     d, colour, _ = _plain_wall_with_a_grown_strip(rng)
-    flat = depth.local_deviation(colour.mean(axis=-1) * 255.0, 5) < 3.0
+    flat = depth.plain_pixels(colour)
     labels, n = depth.plain_surfaces(d, colour, flat)
     assert labels[~flat].max() == -1 and n > 4
     wall, strip = np.unique(labels[:, 16:22][flat[:, 16:22]]), np.unique(labels[:, 22:48][flat[:, 22:48]])
@@ -874,7 +874,7 @@ def test_plain_join_keeps_a_strip_smaller_than_its_wall_and_puts_back_one_larger
     d2[:, 22:40] = 2.0
     colour = colour.copy()
     colour[30:34, 34:38] = rng.uniform(0.1, 0.9, (4, 4, 3))
-    flat = depth.local_deviation(colour.mean(axis=-1) * 255.0, 5) < 3.0
+    flat = depth.plain_pixels(colour)
     narrow, moved2 = depth.join_plain(d2, colour, anchor=8, grow=0.5)
     plain_strip = np.zeros(d.shape, bool)
     plain_strip[:, 40:48] = True
@@ -897,7 +897,7 @@ def test_plain_join_leaves_a_slope_the_map_reaches_smoothly(rng):
     d = np.broadcast_to(np.where(x < 22, 2.0, 2.0 + 0.15 * (x - 22)), (h, w)).astype(np.float32).copy()
     d[:32, 22:] += 2.0  # the upper half steps by 2 px at column 22 ...
     d[28:36, 22:] = np.linspace(d[27, 22:], d[36, 22:], 10)[1:-1]  # ... and runs smoothly into the lower half
-    flat = depth.local_deviation(colour.mean(axis=-1) * 255.0, 5) < 3.0
+    flat = depth.plain_pixels(colour)
     flattened, moved = depth.join_plain(d, colour, anchor=8)
     assert moved[:28, 22:][flat[:28, 22:]].mean() > 0.9  # without the test: the upper half flattened to d = 2
     assert np.all(flattened[moved] == 2.0)
@@ -918,7 +918,7 @@ def test_plain_surfaces_kernel_gives_the_partition_of_its_graph_reference(rng):
         return np.vectorize(lambda v: lookup.get(v, -1))(labels)
 
     d, colour, _ = _plain_wall_with_a_grown_strip(rng)
-    flat = depth.local_deviation(colour.mean(axis=-1) * 255.0, 5) < 3.0
+    flat = depth.plain_pixels(colour)
     cases = [(d, colour, flat)]
     for _ in range(3):  # random maps: steps, slopes and colours that join some neighbours and not others
         dr = (rng.integers(0, 4, (30, 40)) * 0.6 + np.arange(40) * 0.1).astype(np.float32)
@@ -934,7 +934,7 @@ def test_plain_surfaces_kernel_gives_the_partition_of_its_graph_reference(rng):
 
 def test_plain_join_kernel_matches_its_numpy_reference(rng):
     d, colour, A = _plain_wall_with_a_grown_strip(rng)
-    flat = depth.local_deviation(colour.mean(axis=-1) * 255.0, 5) < 3.0
+    flat = depth.plain_pixels(colour)
     source = depth.anchored(d, ~flat, 8) & flat
     ref = depth.join_plain_reference(d, colour, flat, source, 0.04, 1.5)
     np.testing.assert_array_equal(depth.join_plain(d, colour, anchor=8)[0], ref.astype(np.float32))
@@ -1010,14 +1010,14 @@ def _board_with_a_claiming_edge(rng, *, board_depth=0.0, ridge_rows=40, dots=Fal
     d[:ridge_rows, 49] = 12.0
     board = np.zeros((h, w), bool)
     board[:40, :50] = True
-    board &= depth.local_deviation(colour.mean(axis=-1) * 255.0, 5) < 3.0
+    board &= depth.plain_pixels(colour)
     return d, colour, board
 
 
 def test_a_plain_board_takes_the_depth_of_the_edge_that_claims_it(rng):
     d, colour, board = _board_with_a_claiming_edge(rng)
     assert board.sum() == 38 * 48
-    ridge, side, behind = depth.edge_ridges(d, depth.local_deviation(colour.mean(axis=-1) * 255.0, 5) < 3.0)
+    ridge, side, behind = depth.edge_ridges(d, depth.plain_pixels(colour))
     assert ridge[:38, 49].all() and (side[:38, 49] == 1).all() and np.all(behind[:38, 49] == 2.0)
     assert ridge.sum() == 38  # the rows with plain board beside the edge; no other pixel
     out, moved = depth.own_edges(d, colour)
@@ -1042,7 +1042,7 @@ def test_edge_ownership_leaves_a_region_the_edge_does_not_claim(rng, case):
 
 def test_edge_ridges_kernel_matches_its_numpy_reference(rng):
     d, colour, _ = _board_with_a_claiming_edge(rng)
-    cases = [(d, depth.local_deviation(colour.mean(axis=-1) * 255.0, 5) < 3.0)]
+    cases = [(d, depth.plain_pixels(colour))]
     for _ in range(3):  # random maps over random plain and textured blocks
         flat = np.kron(rng.random((12, 16)) < 0.5, np.ones((5, 7), bool))
         flat &= rng.random(flat.shape) < 0.95
@@ -1074,9 +1074,9 @@ def test_a_claim_that_floods_over_another_edges_seeds_does_not_count_their_rows(
     d, colour, board = _board_with_a_claiming_edge(rng)
     colour[:, :10] = rng.uniform(0.1, 0.9, (64, 10, 3))  # texture left of the board
     d[:, :10] = 2.0
-    board &= depth.local_deviation(colour.mean(axis=-1) * 255.0, 5) < 3.0
+    board &= depth.plain_pixels(colour)
     d[20:22, 10] = 15.0  # the short edge, nearer than the board's own
-    ridge = depth.edge_ridges(d, depth.local_deviation(colour.mean(axis=-1) * 255.0, 5) < 3.0)[0]
+    ridge = depth.edge_ridges(d, depth.plain_pixels(colour))[0]
     assert ridge[20:22, 10].all() and ridge[:38, 49].all()
     out, moved = depth.own_edges(d, colour)
     assert not moved.any()

@@ -1179,7 +1179,7 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
     from vfxstereo.sweep import matching_values
 
     changed = False
-    # the plate in sRGB, for steps 10 and 12's colour tests: converted once
+    # the plate in sRGB, for steps 10, 12 and 13's colour tests: converted once
     colour = (matching_values(views[reference], "srgb", 1.0) if config.colour_reopen or config.join or config.own
               else None)
     if config.reopen and config.reopen_passes > 0 and views.shape[0] - 1 >= config.reopen_views:
@@ -1195,46 +1195,43 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
                                          jump=config.colour_jump)[0]
         res.timings["colour reopen"] = time.perf_counter() - t0
         changed = True
-    kept: dict = {}  # step 11's view errors of the map, for step 12's check while the map is unchanged
+    checks = config.join_check and (config.join or config.own)
+    kept: dict = {}  # step 11's view errors of the map, for steps 12 and 13's checks while the map is unchanged
     if config.thin:
         t0 = time.perf_counter()
         thin, moved = recover_thin(views, warper, reference, res.disparity, config=config,
-                                   keep=kept if config.join and config.join_check else None)
+                                   keep=kept if checks else None)
         if moved.any():
             res.disparity = thin
             changed = True
             kept.clear()
         res.timings["thin"] = time.perf_counter() - t0
+
+    def checked(name, t0, proposed, moved):  # steps 12 and 13: moves the views do not contradict
+        nonlocal changed
+        if moved.any() and config.join_check:
+            proposed = views_confirm(views, warper, reference, res.disparity, proposed, jitter=config.reopen_jitter,
+                                     ratio=config.join_ratio, floor=config.join_floor, share=config.join_share,
+                                     gains=kept.get("gains"),
+                                     before_errors=(kept["errors"], kept["seen"]) if kept else None)
+            moved = proposed != res.disparity
+        if moved.any():
+            res.disparity = proposed
+            changed = True
+            kept.clear()
+        res.timings[name] = time.perf_counter() - t0
+
+    flat = plain_pixels(colour, config.join_plain) if config.join or config.own else None
     if config.join:
         t0 = time.perf_counter()
-        joined, moved = join_plain(res.disparity, colour,
-                                   plain=config.join_plain, like=config.join_like, jump=config.join_jump,
-                                   anchor=config.join_anchor, reach=config.join_reach, grow=config.join_grow,
-                                   slopes=config.join_slopes)
-        if moved.any() and config.join_check:
-            joined = views_confirm(views, warper, reference, res.disparity, joined, jitter=config.reopen_jitter,
-                                   ratio=config.join_ratio, floor=config.join_floor, share=config.join_share,
-                                   gains=kept.get("gains"),
-                                   before_errors=(kept["errors"], kept["seen"]) if kept else None)
-            moved = joined != res.disparity
-        kept.clear()
-        if moved.any():
-            res.disparity = joined
-            changed = True
-        res.timings["join"] = time.perf_counter() - t0
+        checked("join", t0, *join_plain(res.disparity, colour, plain=config.join_plain, like=config.join_like,
+                                         jump=config.join_jump, anchor=config.join_anchor, reach=config.join_reach,
+                                         grow=config.join_grow, slopes=config.join_slopes, flat=flat))
     if config.own:
         t0 = time.perf_counter()
-        owned, moved = own_edges(res.disparity, colour, plain=config.join_plain, like=config.join_like,
-                                 jump=config.join_jump, rows=config.own_rows, cover=config.own_cover,
-                                 solid=config.own_solid, margin=config.own_margin)
-        if moved.any() and config.join_check:
-            owned = views_confirm(views, warper, reference, res.disparity, owned, jitter=config.reopen_jitter,
-                                  ratio=config.join_ratio, floor=config.join_floor, share=config.join_share)
-            moved = owned != res.disparity
-        if moved.any():
-            res.disparity = owned
-            changed = True
-        res.timings["own"] = time.perf_counter() - t0
+        checked("own", t0, *own_edges(res.disparity, colour, plain=config.join_plain, like=config.join_like,
+                                       jump=config.join_jump, rows=config.own_rows, cover=config.own_cover,
+                                       solid=config.own_solid, margin=config.own_margin, flat=flat))
     if changed:  # the planes of the map the steps left, once
         res.index = plane_index(res.disparity, warper.disparities)
     return res
@@ -1806,6 +1803,17 @@ def anchored(disparity: np.ndarray, textured: np.ndarray, reach: int, tolerance:
     return out
 
 
+def _along_row(mask: np.ndarray, step: int, reach: int = 3) -> np.ndarray:
+    """``mask`` true at x + step, x + 2 step, ... or x + ``reach`` step along the row (``step`` +1 or -1)."""
+    out = np.zeros_like(mask)
+    for k in range(1, reach + 1):
+        if step > 0:
+            out[:, :-k] |= mask[:, k:]
+        else:
+            out[:, k:] |= mask[:, :-k]
+    return out
+
+
 WEDGE = 8
 """Step 13 seeds its flood up to this far (px) from a ridge along the row, past the plain pixels the window already
 gave the ridge's depth."""
@@ -1843,18 +1851,8 @@ def edge_ridges_reference(disparity: np.ndarray, flat: np.ndarray, *, radius: in
     flat = np.asarray(flat, bool)
     tex = ~flat
     H, W = d.shape
-
-    def within3(mask, step):  # mask true at x + step, x + 2 step or x + 3 step
-        out = np.zeros_like(mask)
-        for k in (1, 2, 3):
-            if step > 0:
-                out[:, :-k] |= mask[:, k:]
-            else:
-                out[:, k:] |= mask[:, :-k]
-        return out
-
-    right = within3(flat, -1) & ~within3(flat, 1) & within3(tex, 1)   # plain on the left, texture on the right
-    left = within3(flat, 1) & ~within3(flat, -1) & within3(tex, -1)
+    right = _along_row(flat, -1) & ~_along_row(flat, 1) & _along_row(tex, 1)  # plain left, texture right
+    left = _along_row(flat, 1) & ~_along_row(flat, -1) & _along_row(tex, -1)
     ys, xs = np.nonzero(tex & (right | left))
     side = np.where(right[ys, xs], 1, -1).astype(np.int8)
     dv = d[ys, xs]
@@ -1889,8 +1887,8 @@ def edge_ridges_reference(disparity: np.ndarray, flat: np.ndarray, *, radius: in
 
 
 def own_edges(disparity: np.ndarray, colour: np.ndarray, *, plain: float = 3.0, like: float = 0.04,
-              jump: float = 1.5, rows: int = 8, cover: float = 0.15, solid: float = 0.9, margin: float = 1.0
-              ) -> tuple[np.ndarray, np.ndarray]:
+              jump: float = 1.5, rows: int = 8, cover: float = 0.15, solid: float = 0.9, margin: float = 1.0,
+              flat: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Step 13: a plain region takes the depth of a textured edge beside it that only the plain side explains.
 
     Returns ``(disparity, moved)``. The flat-surface bias puts a plain surface at the back; a plain board in
@@ -1913,6 +1911,8 @@ def own_edges(disparity: np.ndarray, colour: np.ndarray, *, plain: float = 3.0, 
     * the texture beyond its ridges (their median ``behind``) is not within ``margin`` of the group's own depth
       (the median of the map over it): a plain region at the depth of the texture beyond a near line is more
       simply a plain part of that surface, seen past a thin near structure -- a stem, a wire, a strand of hair.
+
+    ``flat``: :func:`plain_pixels` of ``colour`` and ``plain``, where the caller has them already.
     """
     from scipy import ndimage
 
@@ -1920,7 +1920,7 @@ def own_edges(disparity: np.ndarray, colour: np.ndarray, *, plain: float = 3.0, 
 
     d0 = np.ascontiguousarray(disparity, np.float32)
     col = np.ascontiguousarray(colour, np.float32)
-    flat = local_deviation(col.mean(axis=-1) * 255.0, 5) < plain
+    flat = plain_pixels(col, plain) if flat is None else np.asarray(flat, bool)
     ridge, sides, behind = edge_ridges(d0, flat, jump=jump)
     moved = np.zeros(d0.shape, bool)
     if not ridge.any():
@@ -1958,18 +1958,16 @@ def own_edges(disparity: np.ndarray, colour: np.ndarray, *, plain: float = 3.0, 
     moved = d != d0
     source &= d == seeded  # a seed a nearer claim flooded over supports that claim no longer
     # groups: moved pixels 4-connected where their new depths differ by at most 1 px (one claim each)
+    # (like = 2: colours 0-1 never split a group; seeds that hold their claim moved, so they are in a group)
     labels, n = plain_surfaces(d, col, moved, tolerance=1.0, like=2.0)
     labels += 1
-    sy, sx = np.nonzero(source & moved)
-    nrows = np.bincount(np.unique(labels[sy, sx].astype(np.int64) * H + sy) // H, minlength=n + 1)
-    # the rows where a group meets texture within 3 px along the row
-    tex = ~flat
-    beside = np.zeros_like(tex)
-    for k in (1, 2, 3):
-        beside[:, :-k] |= tex[:, k:]
-        beside[:, k:] |= tex[:, :-k]
-    by, bx = np.nonzero(moved & beside)
-    outline = np.bincount(np.unique(labels[by, bx].astype(np.int64) * H + by) // H, minlength=n + 1)
+
+    def rows_of(mask):  # per group, the rows where ``mask`` has a pixel of it
+        ys, xs = np.nonzero(mask)
+        return np.bincount(np.unique(labels[ys, xs].astype(np.int64) * H + ys) // H, minlength=n + 1)
+
+    nrows = rows_of(source)
+    outline = rows_of(moved & (_along_row(~flat, 1) | _along_row(~flat, -1)))  # meets texture within 3 px
     index = np.arange(1, n + 1)
     candidates = index[(nrows[1:] >= rows) & (nrows[1:] >= cover * outline[1:])]
     keep = np.zeros(n + 1, bool)
@@ -1977,7 +1975,7 @@ def own_edges(disparity: np.ndarray, colour: np.ndarray, *, plain: float = 3.0, 
         own_depth = np.full(n + 1, np.nan, np.float32)  # the map's depth over what moved
         own_depth[candidates] = ndimage.median(d0, labels, candidates)
         beyond = np.full(n + 1, np.nan, np.float32)  # the texture beyond the group's ridges
-        sb = source & moved & np.isfinite(seed_behind)
+        sb = source & np.isfinite(seed_behind)
         with np.errstate(all="ignore"):
             beyond[candidates] = ndimage.median(np.where(sb, seed_behind, 0.0), np.where(sb, labels, 0), candidates)
         objects = ndimage.find_objects(labels)
@@ -1991,9 +1989,18 @@ def own_edges(disparity: np.ndarray, colour: np.ndarray, *, plain: float = 3.0, 
     return d.astype(np.float32), moved
 
 
+def plain_pixels(colour: np.ndarray, plain: float = 3.0) -> np.ndarray:
+    """(H, W) bool: steps 12 and 13's plain pixels.
+
+    Those where the local deviation of the grey of ``colour`` (sRGB-encoded 0-1, as 8-bit, over 5 x 5) is below
+    ``plain``.
+    """
+    return local_deviation(np.asarray(colour, np.float32).mean(axis=-1) * 255.0, 5) < plain
+
+
 def join_plain(disparity: np.ndarray, colour: np.ndarray, *, plain: float = 3.0, like: float = 0.04,
                jump: float = 1.5, anchor: int = 8, reach: int = 0, grow: float = 0.0,
-               slopes: bool = False) -> tuple[np.ndarray, np.ndarray]:
+               slopes: bool = False, flat: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Step 12: inside a plain region of one colour the nearer side of a depth step joins the farther one.
 
     Such a step has no colour edge under it. Returns ``(disparity, moved)``.
@@ -2016,12 +2023,13 @@ def join_plain(disparity: np.ndarray, colour: np.ndarray, *, plain: float = 3.0,
     ``grow`` > 0, the moves on a surface of the new map go back where they are more than ``grow`` times the
     pixels of that surface that did not move: a strip grown over a wall is a small part of the wall, while a
     board that followed a wrong rim, or a sofa back that followed a wrong patch, is most of its surface.
+    ``flat``: :func:`plain_pixels` of ``colour`` and ``plain``, where the caller has them already.
     """
     from vfxstereo import _depth_kernels
 
     d0 = np.ascontiguousarray(disparity, np.float32)
     col = np.ascontiguousarray(colour, np.float32)
-    flat = local_deviation(col.mean(axis=-1) * 255.0, 5) < plain
+    flat = plain_pixels(col, plain) if flat is None else np.asarray(flat, bool)
     source = anchored(d0, ~flat, anchor) & flat
     d = d0.copy()
     carried = col.copy()
