@@ -73,3 +73,45 @@ def test_the_depth_cache_key_follows_the_depth_settings_and_the_depth_code(tmp_p
     assert key != zkey._depth_path(tmp_path, "s", 2, base)
     monkeypatch.setattr(zkey, "DEPTH_SOURCES", zkey.DEPTH_SOURCES[:-1])  # other code: another key
     assert key != zkey._depth_path(tmp_path, "s", 5, base)
+
+
+def test_rows_count_as_worse_than_the_initial_volume_only_below_the_cap():
+    rows = [_row((31.0, 21.0), (0, 0)), _row((61.0, 40.0), (0, 0)), _row((29.0, 20.0), (0, 0))]
+    rows[0]["ours, initial"] = (32.0, 21.0)   # worse by 1 dB: counts
+    rows[1]["ours, initial"] = (170.0, 40.0)  # both above CAP (an exact initial comp): does not count
+    rows[2]["ours, initial"] = (29.02, 20.0)  # within 0.05 dB: does not count
+    text = zkey.tables(rows, "test")
+    assert "worse than the initial volume (frame, > 0.05 dB) on 1/3 rows" in text, text
+
+
+def test_band_pixels_are_classed_by_the_true_front_alpha_and_ours():
+    import numpy as np
+
+    true_a = np.array([0.0, 0.0, 0.0, 0.5, 1.0, 1.0, 1.0, 0.01, 0.99])
+    ours_a = np.array([0.95, 0.5, 0.05, 0.2, 0.5, 0.05, 0.95, 0.1, 0.9])
+    classes = zkey.alpha_classes(true_a, ours_a)
+    names = [zkey.ALPHA_CLASSES[k] for k in classes]
+    assert names == ["clear, under an opaque front", "clear, under a partial front", "right", "soft",
+                     "solid, made see-through", "solid, lost", "right", "clear, under a partial front",
+                     "solid, made see-through"]
+
+
+def test_the_front_alpha_is_what_lies_in_front_of_the_element():
+    import numpy as np
+
+    from vfxstereo.stack import LayerStack
+
+    rgba = np.zeros((3, 2, 2, 4), np.float32)
+    rgba[0, ..., 3] = 1.0  # the back wall, at d = 1: behind the element
+    rgba[1, 0, 0, 3] = 0.5
+    rgba[2, 0, 0, 3] = 0.5
+    rgba[2, 1, 1, 3] = 0.25
+    stack = LayerStack(rgba, np.array([1.0, 5.0, 9.0]))
+    assert np.allclose(zkey.front_alpha(stack, 3.0), [[0.75, 0.0], [0.0, 0.25]])
+    assert np.allclose(zkey.front_alpha(stack, 7.0), [[0.5, 0.0], [0.0, 0.25]])
+
+    class Rendered:  # no layers: the true depth map decides (one surface per pixel)
+        pass
+
+    d = np.array([[2.0, 8.0], [np.nan, 5.0]])
+    assert np.array_equal(zkey.true_front_alpha(Rendered(), 4.0, d), [[0, 1], [0, 1]])
