@@ -1084,3 +1084,65 @@ def test_a_claim_that_floods_over_another_edges_seeds_does_not_count_their_rows(
     d[20:22, 10] = 2.0
     out, moved = depth.own_edges(d, colour)
     np.testing.assert_array_equal(moved, board)
+
+
+def _grille_over_a_wall(rng):
+    """(disparity, rival map, colour, cells, subject): a plain grey wall seen through a grille of textured bars
+    (2 px wide every 12 px) at d = 10 on the left, which the map gave the whole grille area (cells included),
+    and a plain red square subject at d = 10 before a plain blue wall at d = 2 on the right. The rival-gated map
+    puts both the cells and the subject at d = 2."""
+    h, w = 72, 160
+    colour = rng.uniform(0.1, 0.9, (h, w, 3)).astype(np.float32)
+    colour[:, :80] = (0.5, 0.5, 0.5)
+    bars = np.zeros((h, w), bool)
+    for x in range(0, 80, 12):
+        bars[:, x:x + 2] = True
+    for y in range(0, h, 12):
+        bars[y:y + 2, :80] = True
+    colour[bars] = rng.uniform(0.0, 1.0, (int(bars.sum()), 3))
+    colour[:, 84:] = (0.2, 0.3, 0.7)
+    subject = np.zeros((h, w), bool)
+    subject[20:50, 100:130] = True
+    colour[subject] = (0.8, 0.2, 0.2)
+    d = np.full((h, w), 2.0, np.float32)
+    d[:, :80] = 10.0
+    d[subject] = 10.0
+    rival = d.copy()
+    flat = depth.plain_pixels(colour)
+    cells = flat & ~bars
+    cells[:, 80:] = False
+    rival[cells] = 2.0
+    rival[subject] = 2.0
+    return d, rival, colour, cells & flat, subject & flat
+
+
+def test_grille_cells_send_a_wall_seen_through_a_grille_back_and_keep_a_plain_subject(rng):
+    d, rival, colour, cells, subject = _grille_over_a_wall(rng)
+    flat = depth.plain_pixels(colour)
+    assert cells.sum() > 1000 and subject.sum() > 500
+    out, moved = depth.grille_cells(d, rival, colour, flat)
+    np.testing.assert_array_equal(moved, cells)  # every plain cell pixel, and not the subject
+    np.testing.assert_array_equal(out[cells], 2.0)
+    np.testing.assert_array_equal(out[~cells], d[~cells])
+    # a wall of another colour in every other cell: no cell sees its own colour beyond the bars
+    odd = colour.copy()
+    for n, x in enumerate(range(2, 80, 12)):
+        if n % 2:
+            odd[:, x:x + 10] = np.where(cells[:, x:x + 10, None], (0.2, 0.3, 0.7), odd[:, x:x + 10])
+    for n, y in enumerate(range(2, 72, 12)):
+        if n % 2:
+            odd[y:y + 10, :80] = np.where(cells[y:y + 10, :80, None], (0.7, 0.6, 0.1), odd[y:y + 10, :80])
+    assert depth.grille_cells(d, rival, odd, flat, share=0.9)[1].sum() < cells.sum() // 2
+
+
+def test_grille_cells_are_off_by_default_and_their_settings_are_checked():
+    from vfxstereo.errors import VfxStereoError
+
+    assert not depth.DepthConfig().cells
+    assert depth.bytes_per_cell(depth.DepthConfig(flat_guard=False, cells=True)) == depth.bytes_per_cell(
+        depth.DepthConfig())  # the rival map's SGM sums: the guard's buffer, or one of their own
+
+    for bad in ({"cells_rival": 0.0}, {"cells_share": 1.5}, {"cells_like": 0.0}, {"cells_ring": 1},
+                {"cells_jump": -1.0}):
+        with pytest.raises(VfxStereoError):
+            depth.DepthConfig(**bad)

@@ -64,6 +64,11 @@ This stage gives the layered model a dependable front surface instead, from clas
    the region is solid and not at the depth of the texture beyond, and the views do not contradict the move:
    a plain board in front that the flat-surface bias put at the back, where no half-occluded strip tells
    (a stereo pair whose board meets the frame or hides nothing the other view sees).
+14. Grille cells (``cells``, :func:`grille_cells`; off by default), on the whole plate: a plain region that a
+   rival-gated map (one more SGM over the same cost, the flat-surface bias also on pixels a far depth explains
+   about as well) puts farther takes that depth where the plain pixels beyond its thin border mostly have its
+   colour, and the views do not contradict the move: a plain wall seen through the cells of a grille or fence,
+   not a plain subject (beyond whose outline lies something else).
 
 Measured (``benchmarks/middlebury.py``, all 31 sets, one published px apart, the GT's view as reference):
 0.47x OpenCV SGBM's bad pixels on average (9.4 % against 19.5 %), at most 0.88x (Midd1). Per set: tsukuba
@@ -599,6 +604,42 @@ class DepthConfig:
     """Step 13 moves a region only where the texture beyond its claiming edges lies farther than the region's
     own depth by more than this, or nearer (px per view step): a region at the depth of the texture beyond a
     near line is more simply a plain part of that surface, seen past a thin near structure (a stem or a wire)."""
+    cells: bool = False
+    """Step 14 (:func:`grille_cells`), on the whole plate: a plain region takes the depth of the rival-gated map
+    (one more semi-global pass over the same cost, with the flat-surface bias also on pixels a far depth explains
+    about as well, ``cells_rival``) where that map puts it farther by ``cells_jump`` and the plain pixels of
+    the other regions around it (2 to ``cells_ring`` px out) mostly (``cells_share``) have its colour (within
+    ``cells_like``): a plain wall seen through the cells of a grille or fence sees the same wall again beyond
+    each bar, while a plain subject sees something else beyond its outline. Then checked against the views as
+    step 12's moves are. The rival-gated map gets the flat guard too (:func:`own_surfaces`): without it, a
+    plain board in front went back with it (boards_rocks K = 5, -11.9 dB frame).
+
+    Added in session 33, **off by default**: it wins on the tuning scenes and loses on the held-out ones.
+    Measured on the z-key benchmark (frame / band dB; rows losing to the SGBM key, frame / band), against the
+    default, side by side:
+
+    * tuning rows (242): 30.03 / 23.89 -> 30.42 / 24.17, losing 11 / 7 -> 8 / 6. flowers_fence +2.6 / +1.6 and
+      +1.5 / +1.0 (K = 5 / 2; its map 62 -> 78 % right; five of its losing row-metrics win), doll_plaster K = 2
+      +6.6 / +6.3, hair_shelves K = 5 +4.0 / +2.4, sheep_duck_wall +3.6 / +2.4 and +1.3 / +0.9, fur_grey_wall
+      K = 5 +1.6 / -0.1; bear_pillar K = 5 -0.56 / -0.33, boards_rocks K = 5 -0.37 / 0, curls_wire_midd K = 5
+      -0.05 / -0.05 (one band row turns to losing, -1.2);
+    * held-out rows (60, scored once): 30.23 / 25.69 -> 30.08 / 25.66, losing 7 / 5 -> 10 / 5: three full-card
+      rows of panel_hair_books K = 2 turn to losing (-3.2 dB at worst), petals_grille_plastic K = 5 -0.20 /
+      -0.19;
+    * Middlebury, depth only, all 31 sets: MIDDLEBURY.
+
+    Cost: one more SGM and one more :func:`rival_gap` in the last pass, into the flat guard's buffer (no
+    volume more; without the guard, one: :func:`bytes_per_cell`), and the step itself (0.03-0.11 s at 320 x 240 x 33 planes against SGM's 0.1 s)."""
+    cells_rival: float = 3.0
+    """Step 14's rival depth (px per view step): :attr:`rival_jump` of its map."""
+    cells_jump: float = 1.5
+    """Step 14 moves a plain pixel only where its map is farther than this (px per view step)."""
+    cells_share: float = 0.7
+    """Step 14's share of the plain pixels around a region that must have its colour."""
+    cells_like: float = 0.02
+    """Step 14's colour tolerance (sRGB 0-1, every channel) against the region's median colour."""
+    cells_ring: int = 8
+    """Step 14's ring around a region (px)."""
 
     def __post_init__(self):
         if (self.box < 1 or self.paths not in (4, 8) or self.median < 0 or self.visibility_passes < 0
@@ -628,6 +669,10 @@ class DepthConfig:
                 and self.colour_ratio > 0 and self.colour_jump >= 0):
             raise VfxStereoError("depth settings: colour_radius, colour_stride >= 1, colour_like, colour_ratio > 0, "
                                  "colour_jump >= 0")
+        if (self.cells_rival <= 0 or self.cells_jump < 0 or not 0 <= self.cells_share <= 1 or self.cells_like <= 0
+                or self.cells_ring < 2):
+            raise VfxStereoError("depth settings: cells_rival > 0, cells_jump >= 0, 0 <= cells_share <= 1, "
+                                 "cells_like > 0, cells_ring >= 2")
         if self.own_rows < 1 or not 0 <= self.own_cover <= 1 or not 0 <= self.own_solid <= 1 or self.own_margin < 0:
             raise VfxStereoError("depth settings: own_rows >= 1, 0 <= own_cover <= 1, 0 <= own_solid <= 1, "
                                  "own_margin >= 0")
@@ -653,6 +698,8 @@ class DepthResult:
     visible: np.ndarray | None = None
     """(H, W, D) uint8: number of views that see each cell in the last pass (kept with ``keep_volume``)."""
     timings: dict = field(default_factory=dict)
+    cells: np.ndarray | None = None
+    """(H, W) float32 the rival-gated map of step 14 (``DepthConfig.cells``), else None."""
 
 
 def box_filter(cost: np.ndarray, size: int, *, out: np.ndarray | None = None) -> np.ndarray:
@@ -796,8 +843,10 @@ def local_deviation(gray: np.ndarray, size: int = 9) -> np.ndarray:
 def flat_bias(cost: np.ndarray, disparities: np.ndarray, strength: float, gap_scale: float,
               texture: np.ndarray | None = None, texture_scale: float | None = None, *, window: int = 9,
               gap: np.ndarray | None = None, rival: int = 0, rival_scale: float = 1.0,
-              seen: list[np.ndarray] | None = None) -> None:
+              seen: list[np.ndarray] | None = None) -> np.ndarray | None:
     """Add a cost growing towards the near planes where the cost curve is flat (in place).
+
+    Returns the (H, W) weight it added (None: no bias).
 
     The cost added is ``strength * exp(-gap / gap_scale) * (d - d_min) / (d_max - d_min)`` (times
     ``exp(-texture / texture_scale)`` when both are given).
@@ -817,17 +866,29 @@ def flat_bias(cost: np.ndarray, disparities: np.ndarray, strength: float, gap_sc
     undecided as a flat one (``DepthConfig.rival_jump``).
     """
     if strength <= 0 or cost.shape[2] < 2:
-        return
-    from scipy import ndimage
-
+        return None
     gap = cost.mean(axis=2) - cost.min(axis=2) if gap is None else gap
     if rival > 0:
         gap = np.minimum(gap, rival_scale * rival_gap(cost, rival, seen))
+    weight = bias_weight(gap, strength, gap_scale, texture, texture_scale, window=window)
+    add_ramp(cost, disparities, weight)
+    return weight
+
+
+def bias_weight(gap: np.ndarray, strength: float, gap_scale: float, texture: np.ndarray | None = None,
+                texture_scale: float | None = None, *, window: int = 9) -> np.ndarray:
+    """(H, W) float32 weight of :func:`flat_bias` for a cost gap (before its window average)."""
+    from scipy import ndimage
+
     gap = ndimage.uniform_filter(gap, window, mode="reflect")  # flat over a region (``DepthConfig.flat_window``)
     weight = strength * np.exp(-gap / gap_scale)
     if texture is not None and texture_scale:
         weight = weight * np.exp(-texture / texture_scale)
-    weight = weight.astype(np.float32)
+    return weight.astype(np.float32)
+
+
+def add_ramp(cost: np.ndarray, disparities: np.ndarray, weight: np.ndarray) -> None:
+    """Add ``weight`` times a ramp from 0 at the farthest plane to 1 at the nearest to ``cost`` (in place)."""
     d = np.asarray(disparities, np.float64)
     ramp = ((d - d[0]) / (d[-1] - d[0])).astype(np.float32)
     for y in range(0, cost.shape[0], 64):  # in bands of rows: no volume-sized temporary
@@ -1102,9 +1163,11 @@ def strips(h: int, rows: int, margin: int) -> list[tuple[int, int, int, int]]:
 def bytes_per_cell(config: DepthConfig) -> int:
     """Peak bytes per cell of the volume the stage solves at once with ``config``.
 
-    :data:`DEPTH_BYTES_PER_CELL`, and the unbiased SGM sums of ``flat_guard``.
+    :data:`DEPTH_BYTES_PER_CELL`, and the unbiased SGM sums of ``flat_guard`` (step 14's map, ``cells``, reuses
+    them, or needs as many without the guard).
     """
-    return DEPTH_BYTES_PER_CELL + (4 if config.flat_guard and config.far_bias > 0 else 0)
+    second = config.far_bias > 0 and (config.flat_guard or config.cells)
+    return DEPTH_BYTES_PER_CELL + (4 if second else 0)
 
 
 def strip_plan(warper, config: DepthConfig) -> list[tuple[int, int, int, int]]:
@@ -1160,28 +1223,35 @@ def robust_depth(views: np.ndarray, warper, reference: int, *, config: DepthConf
 
     disparity = np.empty((h, w), np.float32)
     reliable = np.empty((h, w), bool)
+    cells = None
     timings: dict[str, float] = {}
     for n, (y0, y1, p0, p1) in enumerate(plan):
         part = _robust_depth(views[:, p0:p1], Warper(warper.camera, warper.disparities, (p1 - p0, w)),
                              reference, config, None, False)
         disparity[y0:y1] = part.disparity[y0 - p0:y1 - p0]
         reliable[y0:y1] = part.reliable[y0 - p0:y1 - p0]
+        if part.cells is not None:
+            if cells is None:
+                cells = np.empty((h, w), np.float32)
+            cells[y0:y1] = part.cells[y0 - p0:y1 - p0]
         for name, seconds in part.timings.items():
             timings[name] = timings.get(name, 0.0) + seconds
         report(progress, "depth strips", n + 1, len(plan))
     return _reopened(DepthResult(disparity=disparity, index=plane_index(disparity, warper.disparities),
-                                 reliable=reliable, timings=timings), views, warper, reference, config, progress)
+                                 reliable=reliable, timings=timings, cells=cells), views, warper, reference, config,
+                     progress)
 
 
 def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConfig, progress) -> DepthResult:
-    """``res`` after the whole-plate steps 9-13 (``reopen``, ``colour_reopen``, ``thin``, ``join``, ``own``)."""
+    """``res`` after the whole-plate steps 9-14 (reopen, colour_reopen, thin, join, own, cells)."""
     from vfxstereo.layers import plane_index
     from vfxstereo.sweep import matching_values
 
     changed = False
     # the plate in sRGB, for steps 10, 12 and 13's colour tests: converted once
-    colour = (matching_values(views[reference], "srgb", 1.0) if config.colour_reopen or config.join or config.own
-              else None)
+    cells = res.cells is not None
+    colour = (matching_values(views[reference], "srgb", 1.0)
+              if config.colour_reopen or config.join or config.own or cells else None)
     if config.reopen and config.reopen_passes > 0 and views.shape[0] - 1 >= config.reopen_views:
         t0 = time.perf_counter()
         res.disparity = reopen_gaps(views, warper, reference, res.disparity, config=config, progress=progress)[0]
@@ -1195,7 +1265,7 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
                                          jump=config.colour_jump)[0]
         res.timings["colour reopen"] = time.perf_counter() - t0
         changed = True
-    checks = config.join_check and (config.join or config.own)
+    checks = config.join_check and (config.join or config.own or cells)
     kept: dict = {}  # step 11's view errors of the map, for steps 12 and 13's checks while the map is unchanged
     if config.thin:
         t0 = time.perf_counter()
@@ -1221,7 +1291,7 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
             kept.clear()
         res.timings[name] = time.perf_counter() - t0
 
-    flat = plain_pixels(colour, config.join_plain) if config.join or config.own else None
+    flat = plain_pixels(colour, config.join_plain) if config.join or config.own or cells else None
     if config.join:
         t0 = time.perf_counter()
         checked("join", t0, *join_plain(res.disparity, colour, plain=config.join_plain, like=config.join_like,
@@ -1232,6 +1302,12 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
         checked("own", t0, *own_edges(res.disparity, colour, plain=config.join_plain, like=config.join_like,
                                        jump=config.join_jump, rows=config.own_rows, cover=config.own_cover,
                                        solid=config.own_solid, margin=config.own_margin, flat=flat))
+    if cells:
+        t0 = time.perf_counter()
+        checked("cells", t0, *grille_cells(res.disparity, res.cells, colour, flat, jump=config.cells_jump,
+                                           share=config.cells_share, like=config.cells_like,
+                                           ring=config.cells_ring, tolerance=1.0, join_like=config.join_like))
+        res.cells = None  # done with: not kept in the result
     if changed:  # the planes of the map the steps left, once
         res.index = plane_index(res.disparity, warper.disparities)
     return res
@@ -1297,11 +1373,19 @@ def _robust_depth(views, warper, reference, config, progress, keep_volume) -> De
             win2, disparity2 = winner_subpixel(unbiased_S, d)
             timings["guard"] = timings.get("guard", 0.0) + time.perf_counter() - t1
             t0 += time.perf_counter() - t1  # not matching's time
-        flat_bias(cost, d, config.far_bias, config.flat_gap,
-                  texture=local_deviation(prep.grey[reference]) if config.flat_texture else None,
-                  texture_scale=config.flat_texture, window=config.flat_window, gap=gap,
-                  rival=max(1, int(round(config.rival_jump / step))) if config.rival_jump > 0 else 0,
-                  rival_scale=config.rival_scale, seen=list(count.values()))
+        texture = local_deviation(prep.grey[reference]) if config.flat_texture else None
+        cells = config.cells and config.far_bias > 0 and p == passes - 1 and D > 1
+        if cells:  # step 14's rival gap, on the cost before the bias
+            t1 = time.perf_counter()
+            gap_c = cost.mean(axis=2) - cost.min(axis=2) if gap is None else gap
+            gap_c = np.minimum(gap_c, config.rival_scale * rival_gap(
+                cost, max(1, int(round(config.cells_rival / step))), list(count.values())))
+            timings["cells"] = timings.get("cells", 0.0) + time.perf_counter() - t1
+            t0 += time.perf_counter() - t1
+        weight = flat_bias(cost, d, config.far_bias, config.flat_gap, texture=texture,
+                           texture_scale=config.flat_texture, window=config.flat_window, gap=gap,
+                           rival=max(1, int(round(config.rival_jump / step))) if config.rival_jump > 0 else 0,
+                           rival_scale=config.rival_scale, seen=list(count.values()))
         timed("match", t0)
         t0 = time.perf_counter()
         sgm(cost, prep.grey[reference], P1=config.P1, P2=config.P2, sigma=config.sigma, paths=config.paths,
@@ -1317,6 +1401,22 @@ def _robust_depth(views, warper, reference, config, progress, keep_volume) -> De
             disparity = np.where(own, disparity2, disparity)
             S[own] = unbiased_S[own]
             timings["guard"] = timings.get("guard", 0.0) + time.perf_counter() - t1
+        if cells:  # step 14's map: the bias also where a far depth rivals the winner, one more SGM
+            t1 = time.perf_counter()
+            extra = bias_weight(gap_c, config.far_bias, config.flat_gap, texture, config.flat_texture,
+                                window=config.flat_window) - weight  # >= 0: the rival only lowers the gap
+            add_ramp(cost, d, np.maximum(extra, 0.0))
+            out2 = unbiased_S if unbiased_S is not None else np.empty_like(S)
+            sgm(cost, prep.grey[reference], P1=config.P1, P2=config.P2, sigma=config.sigma, paths=config.paths,
+                out=out2)
+            cells_map = winner_subpixel(out2, d)[1]
+            del out2
+            if guard:  # as for the main map: plain regions that are a surface of their own keep their depth
+                own = own_surfaces(cells_map, disparity2, prep.values[reference], jump=config.guard_jump,
+                                   radius=config.guard_radius, share=config.guard_share, unlike=config.guard_unlike,
+                                   carry=config.guard_carry, seen=seen_at(count, win2))
+                cells_map = np.where(own, disparity2, cells_map)
+            timings["cells"] = timings.get("cells", 0.0) + time.perf_counter() - t1
     t0 = time.perf_counter()
     reliable = np.ones((h, w), bool)
     if config.fill_occluded and config.visibility_passes > 0:
@@ -1347,11 +1447,15 @@ def _robust_depth(views, warper, reference, config, progress, keep_volume) -> De
     from vfxstereo.layers import plane_index
 
     index = plane_index(disparity, d)
+    if cells and config.median > 1:
+        from scipy import ndimage
+
+        cells_map = ndimage.median_filter(np.asarray(cells_map, np.float32), config.median, mode="nearest")
     timed("finish", t0)
     return DepthResult(disparity=disparity.astype(np.float32), index=index, reliable=reliable,
                        aggregated=S if keep_volume else None,
                        visible=sum(c.astype(np.uint8) for c in count.values()) if keep_volume else None,
-                       timings=timings)
+                       timings=timings, cells=cells_map.astype(np.float32) if cells else None)
 
 
 JITTER_STEPS = 5
@@ -1987,6 +2091,47 @@ def own_edges(disparity: np.ndarray, colour: np.ndarray, *, plain: float = 3.0, 
     d[back] = d0[back]
     moved &= ~back
     return d.astype(np.float32), moved
+
+
+def grille_cells(disparity: np.ndarray, rival_map: np.ndarray, colour: np.ndarray, flat: np.ndarray, *,
+                 jump: float = 1.5, share: float = 0.7, like: float = 0.02, ring: int = 8, tolerance: float = 1.0,
+                 join_like: float = 0.04) -> tuple[np.ndarray, np.ndarray]:
+    """Step 14: ``(proposed map, moved)``: plain regions seen through a grille take the rival-gated map's depth.
+
+    The regions are :func:`plain_surfaces` of ``disparity`` (``flat`` pixels, ``tolerance``, ``join_like``). A
+    region with pixels that ``rival_map`` puts farther by more than ``jump`` moves there (those pixels only)
+    where, of the plain pixels of *other* regions 2 to ``ring`` px around it, at least ``share`` are within
+    ``like`` of its median colour in every channel: the same wall again beyond a thin bar. A plain subject sees
+    another surface beyond its outline and stays.
+    """
+    from scipy import ndimage
+
+    d = np.asarray(disparity, np.float32)
+    candidate = flat & (rival_map < d - jump)
+    proposed = d.copy()
+    if not candidate.any():
+        return proposed, np.zeros(d.shape, bool)
+    labels, _ = plain_surfaces(d, colour, flat, tolerance=tolerance, like=join_like)
+    ids = np.unique(labels[candidate & (labels >= 0)])
+    objects = ndimage.find_objects(labels + 1)
+    h, w = d.shape
+    for i in ids:
+        sl = objects[i]
+        ys = slice(max(sl[0].start - ring, 0), min(sl[0].stop + ring, h))
+        xs = slice(max(sl[1].start - ring, 0), min(sl[1].stop + ring, w))
+        lab = labels[ys, xs]
+        region = lab == i
+        around = ndimage.binary_dilation(region, iterations=ring) & ~ndimage.binary_dilation(region, iterations=1)
+        others = around & flat[ys, xs] & (lab != i)
+        if others.sum() < 10:
+            continue
+        c = np.median(colour[ys, xs][region], axis=0)
+        same = (np.abs(colour[ys, xs] - c).max(axis=-1) < like) & others
+        if same.sum() < share * others.sum():
+            continue
+        move = region & candidate[ys, xs]
+        proposed[ys, xs][move] = rival_map[ys, xs][move]
+    return proposed, proposed != d
 
 
 def plain_pixels(colour: np.ndarray, plain: float = 3.0) -> np.ndarray:
