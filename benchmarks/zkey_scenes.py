@@ -219,7 +219,7 @@ def run_scene(name: str, K: int, preset: str, *, figures: bool = True, overrides
         row["band error by depth"] = {m: [float(sq[m][on_band & (depth_class == k)].sum()) for k in range(3)]
                                       for m in sq}
         row["band error by depth"]["pixels"] = [int((on_band & (depth_class == k)).sum()) for k in range(3)]
-        classes = alpha_classes(true_front_alpha(scene, D, d_true), front_alpha(stack, D))
+        classes = alpha_classes(true_front_alpha(scene, D, d_true), composite.holdout(stack, D))
         row["band error by alpha"] = {m: [float(sq[m][on_band & (classes == k)].sum())
                                           for k in range(len(ALPHA_CLASSES))] for m in sq}
         row["band error by alpha"]["pixels"] = [int((on_band & (classes == k)).sum())
@@ -232,9 +232,10 @@ def run_scene(name: str, K: int, preset: str, *, figures: bool = True, overrides
 
 ALPHA_CLASSES = ("clear, under an opaque front", "clear, under a partial front", "soft", "solid, made see-through",
                  "solid, lost", "right")
-"""Band pixels by the true front's alpha over the element (clear < 0.02, soft, solid >= 0.98) and ours (opaque
-> 0.9, partial 0.1-0.9, lost < 0.1): where the band's error lies (``band error by alpha`` in the rows). "right":
-clear pixels ours leaves nearly clear, and solid ones it keeps opaque."""
+"""Band pixels by the true front's alpha over the element (clear < 0.02, soft, solid >= 0.98) and ours
+(:func:`vfxstereo.composite.holdout`: opaque > 0.9, partial 0.1-0.9, lost < 0.1): where the band's error lies
+(``band error by alpha`` in the rows). "right": clear pixels ours leaves nearly clear, and solid ones it keeps
+opaque."""
 
 
 def true_front_alpha(scene, D: float, d_true: np.ndarray) -> np.ndarray:
@@ -243,15 +244,6 @@ def true_front_alpha(scene, D: float, d_true: np.ndarray) -> np.ndarray:
     if hasattr(scene, "split"):
         return scene.split(D)[0][..., 3]
     return (np.nan_to_num(d_true, nan=-np.inf) > D).astype(np.float32)
-
-
-def front_alpha(stack: LayerStack, D: float) -> np.ndarray:
-    """Alpha of the stack's layers in front of disparity ``D`` (what ``composite.insert`` puts over the element)."""
-    nearer = np.asarray(stack.disparities) > D
-    clear = np.ones(stack.rgba.shape[1:3], np.float64)
-    for layer in np.asarray(stack.rgba)[nearer]:
-        clear *= 1.0 - layer[..., 3]
-    return (1.0 - clear).astype(np.float32)
 
 
 def alpha_classes(true_a: np.ndarray, ours_a: np.ndarray) -> np.ndarray:
@@ -342,7 +334,8 @@ def tables(rows: list[dict], title: str) -> str:
             f"(too near / right / too far by > 1 px; {px[0] / px.sum():.0%} / {px[1] / px.sum():.0%} / "
             f"{px[2] / px.sum():.0%} of the band's pixels): ours {ours[0]:.0f} / {ours[1]:.0f} / {ours[2]:.0f}, "
             f"the true-depth key {key[0]:.0f} / {key[1]:.0f} / {key[2]:.0f} (summed over the rows).")
-    split = [r["band error by alpha"] for r in rows if "band error by alpha" in r]
+    rows_split = [r for r in rows if "band error by alpha" in r]
+    split = [r["band error by alpha"] for r in rows_split]
     if split:
         ours = np.sum([b["ours"] for b in split], axis=0)
         key = np.sum([b["true-depth key"] for b in split], axis=0)
@@ -351,7 +344,6 @@ def tables(rows: list[dict], title: str) -> str:
                  for c, o, k, p in zip(ALPHA_CLASSES, ours, key, px, strict=True)]
         summary.append("Band squared error by the true front's alpha and ours (summed over the rows; ours / the "
                        "true-depth key, share of the band's pixels): " + "; ".join(parts) + ".")
-        rows_split = [r for r in rows if "band error by alpha" in r]
         base = np.mean([min(r["ours"][1], CAP) for r in rows_split])
         gains = [np.mean([_band_without(r, k) for r in rows_split]) - base for k in range(len(ALPHA_CLASSES) - 1)]
         parts = [f"{c} {g:+.2f}" for c, g in zip(ALPHA_CLASSES[:-1], gains, strict=True)]

@@ -99,6 +99,7 @@ def test_band_pixels_are_classed_by_the_true_front_alpha_and_ours():
 def test_the_front_alpha_is_what_lies_in_front_of_the_element():
     import numpy as np
 
+    from vfxstereo.composite import holdout
     from vfxstereo.stack import LayerStack
 
     rgba = np.zeros((3, 2, 2, 4), np.float32)
@@ -107,8 +108,8 @@ def test_the_front_alpha_is_what_lies_in_front_of_the_element():
     rgba[2, 0, 0, 3] = 0.5
     rgba[2, 1, 1, 3] = 0.25
     stack = LayerStack(rgba, np.array([1.0, 5.0, 9.0]))
-    assert np.allclose(zkey.front_alpha(stack, 3.0), [[0.75, 0.0], [0.0, 0.25]])
-    assert np.allclose(zkey.front_alpha(stack, 7.0), [[0.5, 0.0], [0.0, 0.25]])
+    assert np.allclose(holdout(stack, 3.0), [[0.75, 0.0], [0.0, 0.25]])
+    assert np.allclose(holdout(stack, 7.0), [[0.5, 0.0], [0.0, 0.25]])
 
     class Rendered:  # no layers: the true depth map decides (one surface per pixel)
         pass
