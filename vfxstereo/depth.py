@@ -1342,6 +1342,10 @@ def _robust_depth(views, warper, reference, config, progress, keep_volume) -> De
     from vfxstereo.sgm import sgm
     disparity = None
     passes = config.visibility_passes + 1
+
+    def aggregate(cost, out):  # semi-global matching of a cost volume into ``out``
+        sgm(cost, prep.grey[reference], P1=config.P1, P2=config.P2, sigma=config.sigma, paths=config.paths, out=out)
+
     for p in range(passes):
         t0 = time.perf_counter()
         for sd in sides:
@@ -1371,8 +1375,7 @@ def _robust_depth(views, warper, reference, config, progress, keep_volume) -> De
         guard = guarded and p == passes - 1
         if guard:
             t1 = time.perf_counter()
-            sgm(cost, prep.grey[reference], P1=config.P1, P2=config.P2, sigma=config.sigma, paths=config.paths,
-                out=unbiased_S)
+            aggregate(cost, unbiased_S)
             win2, disparity2 = winner_subpixel(unbiased_S, d)
             timings["guard"] = timings.get("guard", 0.0) + time.perf_counter() - t1
             t0 += time.perf_counter() - t1  # not matching's time
@@ -1380,8 +1383,9 @@ def _robust_depth(views, warper, reference, config, progress, keep_volume) -> De
         cells = config.cells and config.far_bias > 0 and p == passes - 1 and D > 1
         if cells:  # step 14's rival gap, on the cost before the bias
             t1 = time.perf_counter()
-            gap_c = cost.mean(axis=2) - cost.min(axis=2) if gap is None else gap
-            gap_c = np.minimum(gap_c, config.rival_scale * rival_gap(
+            if gap is None:  # flat_bias's own gap, computed once for both
+                gap = cost.mean(axis=2) - cost.min(axis=2)
+            gap_c = np.minimum(gap, config.rival_scale * rival_gap(
                 cost, max(1, int(round(config.cells_rival / step))), list(count.values())))
             timings["cells"] = timings.get("cells", 0.0) + time.perf_counter() - t1
             t0 += time.perf_counter() - t1
@@ -1391,34 +1395,36 @@ def _robust_depth(views, warper, reference, config, progress, keep_volume) -> De
                            rival_scale=config.rival_scale, seen=list(count.values()))
         timed("match", t0)
         t0 = time.perf_counter()
-        sgm(cost, prep.grey[reference], P1=config.P1, P2=config.P2, sigma=config.sigma, paths=config.paths,
-            out=S)
+        aggregate(cost, S)
         win, disparity = winner_subpixel(S, d)
         timed("sgm", t0)
         if guard:
             t1 = time.perf_counter()
-            own = own_surfaces(disparity, disparity2, prep.values[reference], jump=config.guard_jump,
-                               radius=config.guard_radius, share=config.guard_share, unlike=config.guard_unlike,
-                               carry=config.guard_carry, seen=seen_at(count, win2))
+            seen2 = seen_at(count, win2)
+
+            def owned(biased, unbiased=disparity2, seen=seen2):  # regions the bias sent back that are a surface
+                return own_surfaces(biased, unbiased, prep.values[reference], jump=config.guard_jump,
+                                    radius=config.guard_radius, share=config.guard_share,
+                                    unlike=config.guard_unlike, carry=config.guard_carry, seen=seen)
+
+            own = owned(disparity)
             win = np.where(own, win2, win)
             disparity = np.where(own, disparity2, disparity)
             S[own] = unbiased_S[own]
             timings["guard"] = timings.get("guard", 0.0) + time.perf_counter() - t1
         if cells:  # step 14's map: the bias also where a far depth rivals the winner, one more SGM
             t1 = time.perf_counter()
+            # the rival only lowers the gap, so this weight is at least the main one's (below 0 only where the
+            # main bias had a rival gate of its own, ``rival_jump``: nothing more to add there)
             extra = bias_weight(gap_c, config.far_bias, config.flat_gap, texture, config.flat_texture,
-                                window=config.flat_window) - weight  # >= 0: the rival only lowers the gap
+                                window=config.flat_window) - weight
             add_ramp(cost, d, np.maximum(extra, 0.0))
             out2 = unbiased_S if unbiased_S is not None else np.empty_like(S)
-            sgm(cost, prep.grey[reference], P1=config.P1, P2=config.P2, sigma=config.sigma, paths=config.paths,
-                out=out2)
+            aggregate(cost, out2)
             cells_map = winner_subpixel(out2, d)[1]
             del out2
-            if guard:  # as for the main map: plain regions that are a surface of their own keep their depth
-                own = own_surfaces(cells_map, disparity2, prep.values[reference], jump=config.guard_jump,
-                                   radius=config.guard_radius, share=config.guard_share, unlike=config.guard_unlike,
-                                   carry=config.guard_carry, seen=seen_at(count, win2))
-                cells_map = np.where(own, disparity2, cells_map)
+            if guard:  # as for the main map
+                cells_map = np.where(owned(cells_map), disparity2, cells_map)
             timings["cells"] = timings.get("cells", 0.0) + time.perf_counter() - t1
     t0 = time.perf_counter()
     reliable = np.ones((h, w), bool)
