@@ -1120,7 +1120,7 @@ def test_grille_cells_send_a_wall_seen_through_a_grille_back_and_keep_a_plain_su
     d, rival, colour, cells, subject = _grille_over_a_wall(rng)
     flat = depth.plain_pixels(colour)
     assert cells.sum() > 1000 and subject.sum() > 500
-    out, moved = depth.grille_cells(d, rival, colour, flat)
+    out, moved = depth.grille_cells(d, rival, colour, flat, ring=8)  # 12 px: the last column sees the blue wall
     np.testing.assert_array_equal(moved, cells)  # every plain cell pixel, and not the subject
     np.testing.assert_array_equal(out[cells], 2.0)
     np.testing.assert_array_equal(out[~cells], d[~cells])
@@ -1132,13 +1132,44 @@ def test_grille_cells_send_a_wall_seen_through_a_grille_back_and_keep_a_plain_su
     for n, y in enumerate(range(2, 72, 12)):
         if n % 2:
             odd[y:y + 10, :80] = np.where(cells[y:y + 10, :80, None], (0.7, 0.6, 0.1), odd[y:y + 10, :80])
-    assert depth.grille_cells(d, rival, odd, flat, share=0.9)[1].sum() < cells.sum() // 2
+    assert depth.grille_cells(d, rival, odd, flat, share=0.9, ring=8)[1].sum() < cells.sum() // 2
 
 
-def test_grille_cells_are_off_by_default_and_their_settings_are_checked():
+def test_grille_cells_keep_a_plain_subject_the_map_split_into_depths(rng):
+    """A plain subject surrounded by its own colour because the map split it (a block of it at another depth) is
+    one surface, not a wall beyond a bar: with ``across`` its block stays; the grille's cells still go back."""
+    h, w = 90, 90
+    colour = np.empty((h, w, 3), np.float32)
+    colour[:] = (0.2, 0.3, 0.7)
+    subject = np.zeros((h, w), bool)
+    subject[10:80, 10:80] = True
+    colour[subject] = (0.8, 0.2, 0.2)
+    d = np.full((h, w), 2.0, np.float32)
+    d[subject] = 10.0
+    block = np.zeros((h, w), bool)
+    block[40:50, 40:50] = True
+    d[block] = 13.0
+    rival = d.copy()
+    rival[block] = 2.0
+    flat = depth.plain_pixels(colour)
+    assert flat[block].all()
+    np.testing.assert_array_equal(depth.grille_cells(d, rival, colour, flat, ring=12, across=False)[1], block)
+    out, moved = depth.grille_cells(d, rival, colour, flat, ring=12, across=True)
+    assert not moved.any()
+    # what the map already has around at the depth the block would take does count: the subject at d = 2 already
+    d2 = np.where(subject & ~block, np.float32(2.0), d)
+    np.testing.assert_array_equal(depth.grille_cells(d2, rival, colour, flat, ring=12, across=True)[1], block)
+    g, grival, gcolour, cells, _ = _grille_over_a_wall(rng)
+    gflat = depth.plain_pixels(gcolour)
+    moved = depth.grille_cells(g, grival, gcolour, gflat, ring=12, across=True)[1]
+    np.testing.assert_array_equal(moved, depth.grille_cells(g, grival, gcolour, gflat, ring=12, across=False)[1])
+    assert moved.sum() > 0.9 * cells.sum() and not (moved & ~cells).any()  # the last column sees the blue wall
+
+
+def test_grille_cells_are_on_by_default_and_their_settings_are_checked():
     from vfxstereo.errors import VfxStereoError
 
-    assert not depth.DepthConfig().cells
+    assert depth.DepthConfig().cells and depth.DepthConfig().cells_across
     assert depth.bytes_per_cell(depth.DepthConfig(flat_guard=False, cells=True)) == depth.bytes_per_cell(
         depth.DepthConfig())  # the rival map's SGM sums: the guard's buffer, or one of their own
 
