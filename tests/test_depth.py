@@ -144,7 +144,8 @@ def test_strips_cover_the_image_once_with_their_margins():
 def test_the_strip_plan_follows_the_memory_budget_and_the_rig():
     from vfxstereo.depth import DEPTH_BYTES_PER_CELL, DepthConfig, bytes_per_cell
 
-    assert bytes_per_cell(DepthConfig(flat_guard=False)) == DEPTH_BYTES_PER_CELL
+    assert bytes_per_cell(DepthConfig(flat_guard=False, cells=False)) == DEPTH_BYTES_PER_CELL
+    assert bytes_per_cell(DepthConfig(flat_guard=False)) == DEPTH_BYTES_PER_CELL + 4  # step 14's rival map
     assert bytes_per_cell(DepthConfig()) == DEPTH_BYTES_PER_CELL + 4  # the guard's unbiased SGM sums
     cam = Camera.from_positions([0, 1, 2, 3, 4], 2)
     d = np.arange(16.0)

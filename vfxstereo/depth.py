@@ -642,7 +642,8 @@ class DepthConfig:
 
     Cost: one more SGM and one more :func:`rival_gap` in the last pass, into the flat guard's buffer (no
     volume more; without the guard, one: :func:`bytes_per_cell`), and the step itself (0.03-0.11 s at
-    320 x 240 x 33 planes, against SGM's 0.1 s)."""
+    320 x 240 x 33 planes, against SGM's 0.1 s): Middlebury Art (7 views, 695 x 555, 81 planes), the whole depth
+    stage 1.09x its time without the step (best of two, side by side)."""
     cells_rival: float = 3.0
     """Step 14's rival depth (px per view step): :attr:`rival_jump` of its map."""
     cells_jump: float = 1.5
