@@ -628,9 +628,11 @@ class DepthConfig:
       (ring 12 without ``cells_across``: 30.50 / 24.18; ring 8: 30.42 / 24.17; ring 16 as 12). flowers_fence
       +2.6 / +1.6 and +1.9 / +1.2 (K = 5 / 2; five of its losing row-metrics win), doll_plaster K = 2 +6.5 /
       +6.2, ostrich_grille +2.5 / +1.5 and +3.2 / +1.8, hair_shelves K = 5 +2.1 / +0.7, fur_grey_wall K = 5
-      +1.6 / -0.1; bear_pillar K = 5 -0.37 / -0.27 (its plain pillar behind a wire fence goes back to the
-      wall: the full card at d = 3 -4.1 / -1.8 and -4.9 / -1.9 at K = 5 / 2, the rows at d = 7 gain), one
-      curls_wire_midd K = 5 band row turns to losing (+0.05 -> -3.7), hair_shelves K = 2 band -0.6;
+      +1.6 / -0.1. Losers: a plain surface *between* the fence and the wall, seen through the fence, goes back
+      to the wall too (nothing here tells it from the wall): bear_pillar's pillar (the full card at d = 3 -4.1 /
+      -1.8 and -4.9 / -1.9 at K = 5 / 2, while its rows at d = 7 gain) and curls_wire_midd's low-texture Midd2
+      card (the card at d = 3 -3.8 / -3.7 and -2.3 / -2.3; at K = 5 its band row turns to losing, its other
+      rows gain); hair_shelves K = 2 band -0.6;
     * panel_hair_books (12 rows, a tuning scene since): its K = 2 full-card rows stay winning (+1.35 / +1.99 /
       +1.17 dB frame over the SGBM key, against +1.55 / +2.18 / +1.32 without the step and -1.63 / -0.88 / -1.10
       without ``cells_across``);
