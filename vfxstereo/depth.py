@@ -2153,18 +2153,17 @@ def grille_cells(disparity: np.ndarray, rival_map: np.ndarray, colour: np.ndarra
         lab = labels[ys, xs]
         region = lab == i
         around = ndimage.binary_dilation(region, iterations=ring) & ~ndimage.binary_dilation(region, iterations=1)
+        move = region & candidate[ys, xs]
         others = around & flat[ys, xs] & (lab != i)
         if across:  # of its own colour surface, only what the map already has at the depth the region would take
-            move = region & candidate[ys, xs]
-            target = np.median(rival_map[ys, xs][move])
-            others &= ~np.isin(apart[ys, xs], np.unique(apart[ys, xs][region])) | (np.abs(d[ys, xs] - target) <= jump)
+            own = np.isin(apart[ys, xs], np.unique(apart[ys, xs][region]))
+            others &= ~own | (np.abs(d[ys, xs] - np.median(rival_map[ys, xs][move])) <= jump)
         if others.sum() < 10:
             continue
         c = np.median(colour[ys, xs][region], axis=0)
         same = (np.abs(colour[ys, xs] - c).max(axis=-1) < like) & others
         if same.sum() < share * others.sum():
             continue
-        move = region & candidate[ys, xs]
         proposed[ys, xs][move] = rival_map[ys, xs][move]
     return proposed, proposed != d
 
