@@ -159,27 +159,35 @@ def test_a_stereo_pair_keeps_strands_that_cross_the_frame_edge(shared_data):
     assert np.mean(np.abs(stack.disparity_map(0.5)[edge] - s.gt_disparity()[edge]) <= 1.0) > 0.9
 
 
-@pytest.mark.data
-def test_a_stereo_pair_puts_a_plain_board_at_the_frame_corner_in_front(shared_data):
-    """boards_rocks as a stereo rig: the plain board in the top-left corner has no texture inside and no strip
-    the right view cannot see, and the flat-surface bias put it behind everything (under 5 % of it right, and
-    the full-card comp lost to the SGBM key). Its right edge, matched at its depth against the farther troll
-    and rocks, claims it (``DepthConfig.own``: measured 100 % of its plain pixels right, +24 dB on that row)."""
+def _depth_maps(shared_data, name: str, K: int, **settings: dict) -> tuple[np.ndarray, dict]:
+    """``(true disparity, {label: map})``: the robust depth stage's map of the scene per set of
+    :class:`~vfxstereo.depth.DepthConfig` settings (over the default), on the benchmark's planes."""
     from dataclasses import replace
 
     from vfxstereo import depth
     from vfxstereo.geometry import Camera
     from vfxstereo.warp import Warper
 
-    s = scenes.build("boards_rocks", K=2, data_dir=shared_data)
+    s = scenes.build(name, K=K, data_dir=shared_data)
     views = s.views()
     gt = s.gt_disparity(0.5)
     warper = Warper(Camera.from_positions(s.positions, s.reference), np.arange(0.0, 16.25, 0.5), gt.shape)
+    return gt, {label: depth.robust_depth(views, warper, s.reference,
+                                          config=replace(depth.DepthConfig(), **kw)).disparity
+                for label, kw in settings.items()}
+
+
+@pytest.mark.data
+def test_a_stereo_pair_puts_a_plain_board_at_the_frame_corner_in_front(shared_data):
+    """boards_rocks as a stereo rig: the plain board in the top-left corner has no texture inside and no strip
+    the right view cannot see, and the flat-surface bias put it behind everything (under 5 % of it right, and
+    the full-card comp lost to the SGBM key). Its right edge, matched at its depth against the farther troll
+    and rocks, claims it (``DepthConfig.own``: measured 100 % of its plain pixels right, +24 dB on that row)."""
+    gt, maps = _depth_maps(shared_data, "boards_rocks", 2, on={}, off={"own": False})
+    on, off = maps["on"], maps["off"]
     board = np.abs(gt - 12.8) < 0.3
     board[:, 150:] = False  # the pillar is at 10, the board the only surface near 12.8 on the left
     assert board.sum() > 10000
-    on = depth.robust_depth(views, warper, s.reference).disparity
-    off = depth.robust_depth(views, warper, s.reference, config=replace(depth.DepthConfig(), own=False)).disparity
     right = {k: float(np.mean(np.abs(d[board] - gt[board]) <= 1.0)) for k, d in (("on", on), ("off", off))}
     assert right["off"] < 0.05 and right["on"] > 0.9, right
     rest = ~board
@@ -191,19 +199,8 @@ def test_a_plain_wall_seen_through_a_fence_goes_back_to_the_wall(shared_data):
     """flowers_fence (K = 5): a plain wall seen through the fence's cells, which the window and semi-global
     matching gave the fence's depth. Step 14 (``DepthConfig.cells``) moves the cells to the rival-gated map's
     farther depth where the same wall colour lies beyond the bars (measured 62 -> 78 % of the map right)."""
-    from dataclasses import replace
-
-    from vfxstereo import depth
-    from vfxstereo.geometry import Camera
-    from vfxstereo.warp import Warper
-
-    s = scenes.build("flowers_fence", K=5, data_dir=shared_data)
-    views = s.views()
-    gt = s.gt_disparity(0.5)
-    warper = Warper(Camera.from_positions(s.positions, s.reference), np.arange(0.0, 16.25, 0.5), gt.shape)
-    base = depth.DepthConfig()
-    on = depth.robust_depth(views, warper, s.reference, config=replace(base, cells=True)).disparity
-    off = depth.robust_depth(views, warper, s.reference, config=replace(base, cells=False)).disparity
+    gt, maps = _depth_maps(shared_data, "flowers_fence", 5, on={"cells": True}, off={"cells": False})
+    on, off = maps["on"], maps["off"]
     right = {k: float(np.mean(np.abs(d - gt) <= 1.0)) for k, d in (("on", on), ("off", off))}
     assert right["off"] < 0.65 and right["on"] > right["off"] + 0.12, right
     moved = on != off
@@ -216,20 +213,7 @@ def test_grille_cells_keep_a_plain_panel_the_map_split_into_depths(shared_data):
     and each sees the panel's colour around it, as a wall cell sees the wall beyond a bar. Step 14 counts only
     what lies across a bar (``cells_across``): the panel keeps its map (measured 81.0 % of the map right without
     the step, 74.8 % with every region around counting, 80.5 % across bars only)."""
-    from dataclasses import replace
-
-    from vfxstereo import depth
-    from vfxstereo.geometry import Camera
-    from vfxstereo.warp import Warper
-
-    s = scenes.build("panel_hair_books", K=2, data_dir=shared_data)
-    views = s.views()
-    gt = s.gt_disparity(0.5)
-    warper = Warper(Camera.from_positions(s.positions, s.reference), np.arange(0.0, 16.25, 0.5), gt.shape)
-    base = depth.DepthConfig()
-    right = {}
-    for name, config in (("off", replace(base, cells=False)), ("across", base),
-                         ("any", replace(base, cells_across=False))):
-        d = depth.robust_depth(views, warper, s.reference, config=config).disparity
-        right[name] = float(np.mean(np.abs(d - gt) <= 1.0))
+    gt, maps = _depth_maps(shared_data, "panel_hair_books", 2, off={"cells": False}, across={},
+                           any={"cells_across": False})
+    right = {k: float(np.mean(np.abs(d - gt) <= 1.0)) for k, d in maps.items()}
     assert right["any"] < right["off"] - 0.03 and right["across"] > right["off"] - 0.01, right
