@@ -280,7 +280,10 @@ class SoftEdgeParams:
     the later stages now beat the true-depth key by 1.66 dB on the band (0.66 before). Tried and not kept: the
     other groups' pixels free (no data term) instead of known, -0.08 / -0.10 against known (the panel's hole
     mended, boards_rocks K = 5 band -2.1); known only where their front is farther (the same as all known on
-    eight scenes), only where it is nearer (as free); known with their own data weight, between the two.
+    eight scenes), only where it is nearer (as free); known with their own data weight, between the two; free
+    only where their own estimate is the depth map's prior alone (weight below twice ``w_prior``: the panel's
+    hole, whose pixels no view or colour places), tuning rows -0.02 / -0.00 (panel_hair_books K = 5 +1.3 frame,
+    doll_plant K = 2, fur_grey_wall and doll_plaster K = 5 -0.6).
     Scored once after the choice, with ``third_surface`` (both on against both off): the two scenes built for
     it and held out, railing_subject_rocks +0.26 / +0.14 (K = 5) and +0.05 / -0.01 (K = 2), wicker_grille_dolls
     -0.08 / -0.04 and -0.05 / -0.03; Middlebury's held-out views, 8 sets, 38.39 -> 38.40 dB (tsukuba 33.97 ->
