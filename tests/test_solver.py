@@ -378,26 +378,34 @@ def test_the_memory_check_refuses_a_robust_solve_that_cannot_fit():
 
 @pytest.mark.parametrize("keep", [True, False])
 def test_the_robust_memory_estimate_matches_what_the_solve_allocates(keep):
-    """tracemalloc sees numpy's buffers: the solve's peak is within 20 % of ``memory_needed``."""
+    """tracemalloc sees numpy's buffers: the solve's peak is within 20 % of ``memory_needed`` when the soft
+    edges' last matting step solves one field per tile (``laplacian_groups`` off: its largest system, what the
+    estimate counts), and below it with the default, which solves each group of front planes on its own (here
+    the three layers' edges are three groups: smaller systems)."""
     import tracemalloc
 
     from vfxstereo import samples, solver
+    from vfxstereo.softedge import SoftEdgeParams
 
     s = samples.layered_scene(shape=(136, 240), num_planes=24)
-    config = SolveConfig.preset("robust").replace(keep_empty_planes=keep)
     disparities = np.arange(24.0)
-    solve(s.views[:, :32, :48], positions=s.positions, reference=s.reference, disparities=disparities,
-          config=config)  # compile first: numba's caches are not the solve's
-    tracemalloc.start()
-    try:
-        stack = solve(s.views, positions=s.positions, reference=s.reference, disparities=disparities,
-                      config=config)
-        peak = tracemalloc.get_traced_memory()[1]
-    finally:
-        tracemalloc.stop()
+    peaks = {}
+    for groups in (False, True):
+        config = SolveConfig.preset("robust").replace(keep_empty_planes=keep,
+                                                      soft_edge=SoftEdgeParams(laplacian_groups=groups))
+        solve(s.views[:, :32, :48], positions=s.positions, reference=s.reference, disparities=disparities,
+              config=config)  # compile first: numba's caches are not the solve's
+        tracemalloc.start()
+        try:
+            stack = solve(s.views, positions=s.positions, reference=s.reference, disparities=disparities,
+                          config=config)
+            peaks[groups] = tracemalloc.get_traced_memory()[1] + s.views.nbytes  # the plates: in the estimate
+        finally:
+            tracemalloc.stop()
     need = solver.memory_needed((136, 240), 24, 5, layers=stack.depth)
-    peak += s.views.nbytes  # the plates: already resident here, counted in the estimate
-    assert 0.8 * need < peak < 1.2 * need, (peak, need)  # measured 1.13 (empty planes dropped), 1.15
+    # measured (empty planes kept / dropped): one field 0.93 / 0.85 (1.07 / 0.84 before session 35), groups 0.66 / 0.59
+    assert 0.8 * need < peaks[False] < 1.2 * need, (peaks, need)
+    assert peaks[True] < 1.2 * need, (peaks, need)
 
 
 def test_a_stack_without_its_empty_planes_holds_the_same_layers():
