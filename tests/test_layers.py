@@ -570,13 +570,18 @@ def _laplacian_case(rng, h=14, w=16):
     matted[:, 4:12] = True
     index = np.where(np.arange(w) >= 8, 3, 0)[None].repeat(h, 0)
     est = np.clip(true_alpha + 0.3 * rng.standard_normal((h, w)), 0, 1)  # noisy per-pixel estimates
-    weight = rng.uniform(0.5, 2.0, matted.sum())
-    info = softedge.SoftEdges(band=matted, alpha=np.where(matted, est, np.nan).astype(np.float32),
-                              front=np.where(matted, 3, -1).astype(np.int32),
-                              back=np.where(matted, 0, -1).astype(np.int32),
-                              confidence=np.zeros((h, w), np.float32),
-                              estimates={"weight": weight.astype(np.float32)})
+    info = _matted(matted, est, 3, rng.uniform(0.5, 2.0, matted.sum()))
     return plate, index, info, true_alpha, est
+
+
+def _matted(matted, est, front, weight):
+    """The SoftEdges the last matting step reads: the matted pixels' estimates ``est`` (H, W), their front plane(s)
+    ``front`` over plane 0, and their data weights ``weight`` (one per matted pixel, ``np.nonzero`` order)."""
+    return softedge.SoftEdges(band=matted, alpha=np.where(matted, est, np.nan).astype(np.float32),
+                              front=np.where(matted, front, -1).astype(np.int32),
+                              back=np.where(matted, 0, -1).astype(np.int32),
+                              confidence=np.zeros(matted.shape, np.float32),
+                              estimates={"weight": np.asarray(weight, np.float32)})
 
 
 def test_the_laplacian_step_solves_levins_closed_form_with_the_estimates_as_data(rng):
@@ -635,12 +640,7 @@ def _two_group_case(rng, h=12, w=16):
     front = np.where(col < 8, 3, 9)
     index = np.where((col >= 4) & (col < 8), 3, 0)
     est = np.where(col < 8, 1.0, 0.0)
-    weight = np.where(col < 8, 2.0, 0.2)[matted]
-    info = softedge.SoftEdges(band=matted, alpha=np.where(matted, est, np.nan).astype(np.float32),
-                              front=np.where(matted, front, -1).astype(np.int32),
-                              back=np.where(matted, 0, -1).astype(np.int32),
-                              confidence=np.zeros((h, w), np.float32),
-                              estimates={"weight": weight.astype(np.float32)})
+    info = _matted(matted, est, front, np.where(col < 8, 2.0, 0.2)[matted])
     return plate, index, info, front, est
 
 

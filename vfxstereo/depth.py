@@ -2140,7 +2140,6 @@ def grille_cells(disparity: np.ndarray, rival_map: np.ndarray, colour: np.ndarra
     if not candidate.any():
         return proposed, np.zeros(d.shape, bool)
     labels, _ = plain_surfaces(d, colour, flat, tolerance=tolerance, like=join_like)
-    apart = labels
     if across:  # the plain surfaces of the colour alone: a region's own surface, wherever the map split it
         apart, _ = plain_surfaces(np.zeros_like(d), colour, flat, tolerance=1.0, like=join_like)
     ids = np.unique(labels[candidate & (labels >= 0)])

@@ -770,10 +770,10 @@ def laplacian_matte(info: SoftEdges, plate: np.ndarray, index: np.ndarray, p: So
     group = np.zeros(matted.shape, np.int64)
     farthest = np.zeros(1, np.int64)  # per group: its farthest front plane (the lowest)
     if p.laplacian_groups and jump > 0:
-        fronts = np.unique(front[matted])
-        gid = np.concatenate([[0], np.cumsum(np.diff(fronts) >= jump)])
-        group[matted] = gid[np.searchsorted(fronts, front[matted])]
-        farthest = np.array([fronts[gid == g].min() for g in range(gid[-1] + 1)], np.int64)
+        fronts = np.unique(front[matted])  # ascending: a group starts at its farthest plane
+        starts = np.concatenate([[True], np.diff(fronts) >= jump])
+        group[matted] = (np.cumsum(starts) - 1)[np.searchsorted(fronts, front[matted])]
+        farthest = fronts[starts]
     del front
     pos = np.full(matted.shape, -1, np.int64)
     pos[ys, xs] = np.arange(len(ys))
@@ -792,13 +792,14 @@ def laplacian_matte(info: SoftEdges, plate: np.ndarray, index: np.ndarray, p: So
                              is_known=~matted_t).tocsr()
             inner = np.zeros_like(matted_t)  # results of the tile itself; its margin is another tile's
             inner[y0 - sy.start:y0 - sy.start + t, x0 - sx.start:x0 - sx.start + t] = True
-            group_t = group[sy, sx]
+            group_t, pos_t, index_t, known_t = (v[sy, sx].ravel() for v in (group, pos, index, known))
+            matted_t, inner = matted_t.ravel(), inner.ravel()
             for g in np.unique(group_t[matted_t & inner]):
-                u = (matted_t & (group_t == g)).ravel()
+                u = matted_t & (group_t == g)
                 # the other groups' pixels are known for this one: covered where their surface is on or before it
-                kn = np.where(matted_t.ravel(), index[sy, sx].ravel() >= farthest[g], known[sy, sx].ravel())
+                kn = np.where(matted_t, index_t >= farthest[g], known_t)
                 Lu = L[u]
-                j = pos[sy, sx].ravel()[u]
+                j = pos_t[u]
                 A = (Lu[:, u] + sp.diags(lam[j])).tocsr()
                 b = lam[j] * alpha[j] - Lu[:, ~u] @ kn[~u]
                 if not b.any():  # nothing covered, in the data or around: 0 (pymatting's cg would divide 0 by 0)
@@ -809,7 +810,7 @@ def laplacian_matte(info: SoftEdges, plate: np.ndarray, index: np.ndarray, p: So
                     except ValueError:
                         M = jacobi(A)
                     a = np.clip(cg(A, b, x0=alpha[j], M=M, maxiter=2000, rtol=1e-6), 0.0, 1.0)
-                keep = inner.ravel()[u]
+                keep = inner[u]
                 out[j[keep]] = a[keep]
     return np.where(out < p.snap, 0.0, np.where(out > 1.0 - p.snap, 1.0, out)).astype(np.float32)
 
