@@ -69,6 +69,12 @@ This stage gives the layered model a dependable front surface instead, from clas
    about as well) puts farther takes that depth where the plain pixels beyond its thin border mostly have its
    colour, and the views do not contradict the move: a plain wall seen through the cells of a grille or fence,
    not a plain subject (beyond whose outline lies something else).
+15. Spread cells (``cells_spread``, :func:`spread_cells`), on the whole plate: round by round, a plain region
+   whose plain pixels across its bars mostly have its colour, some of them farther, takes their depth, where
+   the views do not contradict the move: the wall's depth carried from cell to cell across a grille, to the
+   cells step 14's map missed.
+16. Rims (``colour_again``), around the cells steps 14 and 15 sent back: step 10 once more, with a lower
+   ratio: the rim of wall colour the window left around each bar goes back with its cell.
 
 Measured (``benchmarks/middlebury.py``, all 31 sets, one published px apart, the GT's view as reference):
 0.47x OpenCV SGBM's bad pixels on average (9.4 % against 19.5 %), at most 0.88x (Midd1). Per set: tsukuba
@@ -661,6 +667,46 @@ class DepthConfig:
     colour joins to it, and those of its own surface the map already has at the depth the region would take.
     False: every plain pixel of another region (a surface the map split into depths then sees its own colour
     around each part)."""
+    cells_spread: int = 8
+    """Step 15 (:func:`spread_cells`), on the whole plate: rounds of carrying a wall's depth from grille cell to
+    grille cell across the bars (0: off), with step 14's ``cells_ring``, ``cells_share``, ``cells_like`` and
+    ``cells_jump``. Step 14 moves only the cells the rival-gated map puts farther; the others keep the bars'
+    depth while the cells beside them, across a bar, already show the same wall farther back. Each round, a
+    plain region whose plain pixels across its bars mostly have its colour, and at least ``cells_farther`` of
+    those lie farther, takes their median depth; then the views check the moves as step 12's.
+
+    Added in session 36, on by default (8 rounds, ``cells_farther`` 0.3). Measured on the z-key benchmark
+    (frame / band dB; rows losing to the SGBM key, frame / band), side by side with the default before it:
+
+    * tuning rows (278): 30.63 / 24.67 -> 30.70 / 24.73, losing 15 / 8 -> 14 / 8 (flowers_fence K = 2's card
+      at d = 4 turns to winning). ostrich_grille +1.6 / +1.2 and +1.0 / +0.9 (K = 5 / 2; of its wall's
+      pixels, 42 -> 61 % and 46 -> 51 % within 1 px: the cells left of the subject), flowers_fence +0.7 /
+      +0.4 and +0.5 / +0.3; worst doll_plaster K = 2 -0.2 / -0.3, bear_pillar (a plain pillar between the
+      fence and the wall) -0.3 at most on one row;
+    * held-out rows (60, scored once after the choice): 27.21 / 21.46 -> 27.45 / 21.62, none losing before or
+      after; wicker_grille_dolls K = 5 +1.3 / +0.7, board_fence_toy K = 5 +0.7 / +0.7;
+    * Middlebury: see the module docstring.
+
+    Step 16 (``colour_again``) then pulls the bars' rims back to the cells it sent back."""
+    cells_farther: float = 0.3
+    """Step 15's share of a region's same-coloured pixels across its bars that must lie farther for it to move
+    (the first cells beside a wall already right see one or two such neighbours of four)."""
+    colour_again: float = 1.5
+    """Step 16: step 10 (:func:`reopen_by_colour`) once more after steps 11-15, with this ``colour_ratio``
+    (0: off), on the pixels within ``colour_again_near`` px of those steps 14 and 15 sent back, checked against
+    the views as step 12's moves. Once the cells of a grille are back at the wall's depth, the rim the window
+    left around each bar (1-4 px of wall colour at the bar's depth) has the wall beside it again, but step 10's
+    ratio of 4 keeps it: much of what lies at the bar's depth near it is rim, of the wall's colour too.
+
+    Added in session 36, on by default. Measured on the z-key tuning rows (278, frame / band dB; rows losing to
+    the SGBM key), with step 15 on: 30.70 / 24.73 -> 30.77 / 24.80, losing 14 / 8 either way (ostrich_grille
+    K = 2 +1.0 / +1.1, doll_plaster K = 2 +0.6 / +0.5, flowers_fence K = 5 +0.4 / +0.4; worst fence_dof K = 5
+    -0.25 / -0.19). Anywhere on the plate (``colour_again_near`` 0) it gained more and lost rows: ratio 1.5
+    30.79 / 24.97, losing 18 / 10 (rabbit_cream_board K = 2 +1.5 / +2.0 and boards_rocks K = 2 +1.0 / +1.2,
+    but sheep_duck_wall K = 2 -3.0 frame and the small cards at d = 4 behind the artichoke's hairs -4.0 / -9.8);
+    ratio 2.5 30.76 / 24.86, losing 16 / 9."""
+    colour_again_near: int = 4
+    """Step 16's reach around the pixels steps 14 and 15 moved (px); 0: the whole plate."""
 
     def __post_init__(self):
         if (self.box < 1 or self.paths not in (4, 8) or self.median < 0 or self.visibility_passes < 0
@@ -691,9 +737,11 @@ class DepthConfig:
             raise VfxStereoError("depth settings: colour_radius, colour_stride >= 1, colour_like, colour_ratio > 0, "
                                  "colour_jump >= 0")
         if (self.cells_rival <= 0 or self.cells_jump < 0 or not 0 <= self.cells_share <= 1 or self.cells_like <= 0
-                or self.cells_ring < 2):
+                or self.cells_ring < 2 or self.cells_spread < 0 or not 0 <= self.cells_farther <= 1
+                or self.colour_again < 0 or self.colour_again_near < 0):
             raise VfxStereoError("depth settings: cells_rival > 0, cells_jump >= 0, 0 <= cells_share <= 1, "
-                                 "cells_like > 0, cells_ring >= 2")
+                                 "cells_like > 0, cells_ring >= 2, cells_spread >= 0, 0 <= cells_farther <= 1, "
+                                 "colour_again, colour_again_near >= 0")
         if self.own_rows < 1 or not 0 <= self.own_cover <= 1 or not 0 <= self.own_solid <= 1 or self.own_margin < 0:
             raise VfxStereoError("depth settings: own_rows >= 1, 0 <= own_cover <= 1, 0 <= own_solid <= 1, "
                                  "own_margin >= 0")
@@ -1323,6 +1371,7 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
         checked("own", t0, *own_edges(res.disparity, colour, plain=config.join_plain, like=config.join_like,
                                        jump=config.join_jump, rows=config.own_rows, cover=config.own_cover,
                                        solid=config.own_solid, margin=config.own_margin, flat=flat))
+    before_cells = res.disparity
     if cells:
         t0 = time.perf_counter()
         checked("cells", t0, *grille_cells(res.disparity, res.cells, colour, flat, jump=config.cells_jump,
@@ -1330,6 +1379,25 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
                                            ring=config.cells_ring, tolerance=1.0, join_like=config.join_like,
                                            across=config.cells_across))
         res.cells = None  # done with: not kept in the result
+    if cells and config.cells_spread > 0:
+        t0 = time.perf_counter()
+        checked("spread", t0, *spread_cells(res.disparity, colour, flat, jump=config.cells_jump,
+                                            share=config.cells_share, like=config.cells_like, ring=config.cells_ring,
+                                            farther=config.cells_farther, rounds=config.cells_spread,
+                                            join_like=config.join_like))
+    sent_back = res.disparity != before_cells
+    if config.colour_again > 0 and (config.colour_again_near == 0 or sent_back.any()):
+        t0 = time.perf_counter()
+        again, moved = reopen_by_colour(res.disparity, colour, radius=config.colour_radius,
+                                        stride=config.colour_stride, like=config.colour_like,
+                                        ratio=config.colour_again, jump=config.colour_jump)
+        if config.colour_again_near > 0:  # only around the cells steps 14 and 15 sent back
+            from scipy import ndimage
+
+            near = ndimage.binary_dilation(sent_back, iterations=config.colour_again_near)
+            moved &= near
+            again = np.where(moved, again, res.disparity).astype(np.float32)
+        checked("colour again", t0, again, moved)
     if changed:  # the planes of the map the steps left, once
         res.index = plane_index(res.disparity, warper.disparities)
     return res
@@ -2165,6 +2233,63 @@ def grille_cells(disparity: np.ndarray, rival_map: np.ndarray, colour: np.ndarra
             continue
         proposed[ys, xs][move] = rival_map[ys, xs][move]
     return proposed, proposed != d
+
+
+def spread_cells(disparity: np.ndarray, colour: np.ndarray, flat: np.ndarray, *, jump: float = 1.5,
+                 share: float = 0.7, like: float = 0.02, ring: int = 12, farther: float = 0.3, rounds: int = 8,
+                 join_like: float = 0.04, size: int = 10) -> tuple[np.ndarray, np.ndarray]:
+    """Step 15: ``(proposed map, moved)``: grille cells take the depth of the cells beyond their bars.
+
+    Step 14 moves a cell only where the rival-gated map has it farther; a cell that map missed keeps the bars'
+    depth while the cells beside it, across a bar, show the same wall farther back. Each round, a plain surface
+    (:func:`plain_surfaces` of the current proposal, at least ``size`` px) whose plain pixels across a bar, 2 to
+    ``ring`` px around it, mostly (``share``) have its colour (within ``like``), and of those at least
+    ``farther`` lie farther than it by ``jump``, takes their median depth. Only pixels of *other* plain surfaces
+    of the colour alone count (a surface the map split into depths sees its own colour around each part). Up
+    to ``rounds`` rounds, so the wall's depth spreads cell by cell across the grille.
+    """
+    from scipy import ndimage
+
+    d = np.asarray(disparity, np.float32).copy()
+    d0 = d.copy()
+    apart, _ = plain_surfaces(np.zeros_like(d), colour, flat, tolerance=1.0, like=join_like)
+    h, w = d.shape
+    for _ in range(max(0, rounds)):
+        labels, _ = plain_surfaces(d, colour, flat, tolerance=1.0, like=join_like)
+        low = ndimage.minimum_filter(np.where(flat, d, np.inf), 2 * ring + 1, mode="nearest")
+        ids = np.unique(labels[flat & (low < d - jump) & (labels >= 0)])
+        if ids.size == 0:
+            break
+        objects = ndimage.find_objects(labels + 1)
+        new = d.copy()
+        for i in ids:
+            sl = objects[i]
+            ys = slice(max(sl[0].start - ring, 0), min(sl[0].stop + ring, h))
+            xs = slice(max(sl[1].start - ring, 0), min(sl[1].stop + ring, w))
+            lab = labels[ys, xs]
+            region = lab == i
+            if region.sum() < size:
+                continue
+            around = ndimage.binary_dilation(region, iterations=ring) & ~ndimage.binary_dilation(region, iterations=1)
+            own = np.isin(apart[ys, xs], np.unique(apart[ys, xs][region]))
+            others = around & flat[ys, xs] & (lab != i) & ~own
+            if others.sum() < 10:
+                continue
+            c = np.median(colour[ys, xs][region], axis=0)
+            same = (np.abs(colour[ys, xs] - c).max(axis=-1) < like) & others
+            if same.sum() < share * others.sum():
+                continue
+            dr = float(np.median(d[ys, xs][region]))
+            far = same & (d[ys, xs] < dr - jump)
+            if far.sum() < max(1, farther * same.sum()):
+                continue
+            target = np.float32(np.median(d[ys, xs][far]))
+            move = region & (d[ys, xs] > target + jump)
+            new[ys, xs][move] = target
+        if (new == d).all():
+            break
+        d = new
+    return d, d != d0
 
 
 def plain_pixels(colour: np.ndarray, plain: float = 3.0) -> np.ndarray:
