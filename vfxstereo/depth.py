@@ -683,9 +683,11 @@ class DepthConfig:
       pixels, 42 -> 61 % and 46 -> 51 % within 1 px: the cells left of the subject), flowers_fence +0.7 /
       +0.4 and +0.5 / +0.3; worst doll_plaster K = 2 -0.2 / -0.3, bear_pillar (a plain pillar between the
       fence and the wall) -0.3 at most on one row;
-    * held-out rows (60, scored once after the choice): 27.21 / 21.46 -> 27.45 / 21.62, none losing before or
-      after; wicker_grille_dolls K = 5 +1.3 / +0.7, board_fence_toy K = 5 +0.7 / +0.7;
-    * Middlebury: see the module docstring.
+    * held-out rows (60, scored after the choice; and once more with step 16): 27.21 / 21.46 -> 27.45 /
+      21.62, none losing before or after; wicker_grille_dolls K = 5 +1.3 / +0.7, board_fence_toy K = 5 +0.7 /
+      +0.7;
+    * Middlebury, depth only, all 31 sets: from all views 9.20 % either way (no set moves by more than 0.01),
+      from the classic pair 14.20 -> 14.24 % (Baby1 6.5 -> 7.4, Baby2 9.6 -> 10.0, Lampshade1 14.4 -> 14.2).
 
     Step 16 (``colour_again``) then pulls the bars' rims back to the cells it sent back."""
     cells_farther: float = 0.3
@@ -701,7 +703,9 @@ class DepthConfig:
     Added in session 36, on by default. Measured on the z-key tuning rows (278, frame / band dB; rows losing to
     the SGBM key), with step 15 on: 30.70 / 24.73 -> 30.77 / 24.80, losing 14 / 8 either way (ostrich_grille
     K = 2 +1.0 / +1.1, doll_plaster K = 2 +0.6 / +0.5, flowers_fence K = 5 +0.4 / +0.4; worst fence_dof K = 5
-    -0.25 / -0.19). Anywhere on the plate (``colour_again_near`` 0) it gained more and lost rows: ratio 1.5
+    -0.25 / -0.19); held-out rows (60, scored after the choice) 27.45 / 21.62 -> 27.49 / 21.65, none losing
+    (wicker_grille_dolls +0.1 / +0.1 at both K). Middlebury, depth only: from all views 9.20 % either way, from
+    the classic pair 14.24 -> 14.32 % (Baby1 7.4 -> 8.9, Baby2 10.0 -> 10.9). Anywhere on the plate (``colour_again_near`` 0) it gained more and lost rows: ratio 1.5
     30.79 / 24.97, losing 18 / 10 (rabbit_cream_board K = 2 +1.5 / +2.0 and boards_rocks K = 2 +1.0 / +1.2,
     but sheep_duck_wall K = 2 -3.0 frame and the small cards at d = 4 behind the artichoke's hairs -4.0 / -9.8);
     ratio 2.5 30.76 / 24.86, losing 16 / 9."""
