@@ -705,7 +705,8 @@ class DepthConfig:
     K = 2 +1.0 / +1.1, doll_plaster K = 2 +0.6 / +0.5, flowers_fence K = 5 +0.4 / +0.4; worst fence_dof K = 5
     -0.25 / -0.19); held-out rows (60, scored after the choice) 27.45 / 21.62 -> 27.49 / 21.65, none losing
     (wicker_grille_dolls +0.1 / +0.1 at both K). Middlebury, depth only: from all views 9.20 % either way, from
-    the classic pair 14.24 -> 14.32 % (Baby1 7.4 -> 8.9, Baby2 10.0 -> 10.9). Anywhere on the plate (``colour_again_near`` 0) it gained more and lost rows: ratio 1.5
+    the classic pair 14.24 -> 14.32 % (Baby1 7.4 -> 8.9, Baby2 10.0 -> 10.9). Anywhere on the plate
+    (``colour_again_near`` 0) it gained more and lost rows: ratio 1.5
     30.79 / 24.97, losing 18 / 10 (rabbit_cream_board K = 2 +1.5 / +2.0 and boards_rocks K = 2 +1.0 / +1.2,
     but sheep_duck_wall K = 2 -3.0 frame and the small cards at d = 4 behind the artichoke's hairs -4.0 / -9.8);
     ratio 2.5 30.76 / 24.86, losing 16 / 9."""
@@ -2193,6 +2194,36 @@ def own_edges(disparity: np.ndarray, colour: np.ndarray, *, plain: float = 3.0, 
     return d.astype(np.float32), moved
 
 
+def _region_window(labels: np.ndarray, objects: list, i: int, ring: int):
+    """Steps 14 and 15's window on plain surface ``i``: ``(ys, xs, lab, region, around)``.
+
+    The surface's box grown by ``ring`` px, the labels there, the surface, and the ring 2 to ``ring`` px around it.
+    """
+    from scipy import ndimage
+
+    h, w = labels.shape
+    sl = objects[i]
+    ys = slice(max(sl[0].start - ring, 0), min(sl[0].stop + ring, h))
+    xs = slice(max(sl[1].start - ring, 0), min(sl[1].stop + ring, w))
+    lab = labels[ys, xs]
+    region = lab == i
+    around = ndimage.binary_dilation(region, iterations=ring) & ~ndimage.binary_dilation(region, iterations=1)
+    return ys, xs, lab, region, around
+
+
+def _of_its_colour(colour: np.ndarray, region: np.ndarray, others: np.ndarray, like: float,
+                   share: float) -> np.ndarray | None:
+    """The pixels of ``others`` within ``like`` of ``region``'s median colour (every channel), or None.
+
+    None where there are fewer than 10 others, or such pixels are under ``share`` of them (``colour``: the window's).
+    """
+    if others.sum() < 10:
+        return None
+    c = np.median(colour[region], axis=0)
+    same = (np.abs(colour - c).max(axis=-1) < like) & others
+    return same if same.sum() >= share * others.sum() else None
+
+
 def grille_cells(disparity: np.ndarray, rival_map: np.ndarray, colour: np.ndarray, flat: np.ndarray, *,
                  jump: float = 1.5, share: float = 0.7, like: float = 0.02, ring: int = 8, tolerance: float = 1.0,
                  join_like: float = 0.04, across: bool = False) -> tuple[np.ndarray, np.ndarray]:
@@ -2216,24 +2247,14 @@ def grille_cells(disparity: np.ndarray, rival_map: np.ndarray, colour: np.ndarra
         apart, _ = plain_surfaces(np.zeros_like(d), colour, flat, tolerance=1.0, like=join_like)
     ids = np.unique(labels[candidate & (labels >= 0)])
     objects = ndimage.find_objects(labels + 1)
-    h, w = d.shape
     for i in ids:
-        sl = objects[i]
-        ys = slice(max(sl[0].start - ring, 0), min(sl[0].stop + ring, h))
-        xs = slice(max(sl[1].start - ring, 0), min(sl[1].stop + ring, w))
-        lab = labels[ys, xs]
-        region = lab == i
-        around = ndimage.binary_dilation(region, iterations=ring) & ~ndimage.binary_dilation(region, iterations=1)
+        ys, xs, lab, region, around = _region_window(labels, objects, i, ring)
         move = region & candidate[ys, xs]
         others = around & flat[ys, xs] & (lab != i)
         if across:  # of its own colour surface, only what the map already has at the depth the region would take
             own = np.isin(apart[ys, xs], np.unique(apart[ys, xs][region]))
             others &= ~own | (np.abs(d[ys, xs] - np.median(rival_map[ys, xs][move])) <= jump)
-        if others.sum() < 10:
-            continue
-        c = np.median(colour[ys, xs][region], axis=0)
-        same = (np.abs(colour[ys, xs] - c).max(axis=-1) < like) & others
-        if same.sum() < share * others.sum():
+        if _of_its_colour(colour[ys, xs], region, others, like, share) is None:
             continue
         proposed[ys, xs][move] = rival_map[ys, xs][move]
     return proposed, proposed != d
@@ -2257,7 +2278,6 @@ def spread_cells(disparity: np.ndarray, colour: np.ndarray, flat: np.ndarray, *,
     d = np.asarray(disparity, np.float32).copy()
     d0 = d.copy()
     apart, _ = plain_surfaces(np.zeros_like(d), colour, flat, tolerance=1.0, like=join_like)
-    h, w = d.shape
     for _ in range(max(0, rounds)):
         labels, _ = plain_surfaces(d, colour, flat, tolerance=1.0, like=join_like)
         low = ndimage.minimum_filter(np.where(flat, d, np.inf), 2 * ring + 1, mode="nearest")
@@ -2267,21 +2287,12 @@ def spread_cells(disparity: np.ndarray, colour: np.ndarray, flat: np.ndarray, *,
         objects = ndimage.find_objects(labels + 1)
         new = d.copy()
         for i in ids:
-            sl = objects[i]
-            ys = slice(max(sl[0].start - ring, 0), min(sl[0].stop + ring, h))
-            xs = slice(max(sl[1].start - ring, 0), min(sl[1].stop + ring, w))
-            lab = labels[ys, xs]
-            region = lab == i
+            ys, xs, lab, region, around = _region_window(labels, objects, i, ring)
             if region.sum() < size:
                 continue
-            around = ndimage.binary_dilation(region, iterations=ring) & ~ndimage.binary_dilation(region, iterations=1)
             own = np.isin(apart[ys, xs], np.unique(apart[ys, xs][region]))
-            others = around & flat[ys, xs] & (lab != i) & ~own
-            if others.sum() < 10:
-                continue
-            c = np.median(colour[ys, xs][region], axis=0)
-            same = (np.abs(colour[ys, xs] - c).max(axis=-1) < like) & others
-            if same.sum() < share * others.sum():
+            same = _of_its_colour(colour[ys, xs], region, around & flat[ys, xs] & (lab != i) & ~own, like, share)
+            if same is None:
                 continue
             dr = float(np.median(d[ys, xs][region]))
             far = same & (d[ys, xs] < dr - jump)
