@@ -889,7 +889,6 @@ def board_fence_toy(K: int = 5, data_dir=None) -> Scene:
                   (12.4, 7.2, 3.0), seed=341)
 
 
-
 @_register
 def railing_subject_rocks(K: int = 5, data_dir=None) -> Scene:
     """(held out) A pale railing of 2 px bars at 20 degrees before a soft subject (GT12), a plain green card, Rocks2.
@@ -934,6 +933,7 @@ def wicker_grille_dolls(K: int = 5, data_dir=None) -> Scene:
                                               cv, MARGIN + 10, MARGIN + 20), 13.0)
     return _scene("wicker_grille_dolls", [wall, dolls, grille, wicker], K, rng, wicker_grille_dolls.__doc__,
                   (10.6, 6.2, 2.6), seed=352)
+
 
 def build(name: str, *, K: int = 5, data_dir=None) -> Scene:
     """The benchmark scene ``name`` (:data:`SCENES`) with ``K`` views (K = 2: a stereo rig, reference left)."""
