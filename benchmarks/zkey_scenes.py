@@ -135,8 +135,8 @@ def build_scene(name: str, K: int):
     return CyclesScene(name, K) if name in CYCLES else scenes.build(name, K=K)
 
 
-DEPTH_SOURCES = ("depth.py", "_depth_kernels.py", "matching.py", "sweep.py", "sgm.py", "subpixel.py", "warp.py",
-                 "geometry.py", "homography.py", "layers.py")
+DEPTH_SOURCES = ("depth.py", "depth_plate.py", "_depth_kernels.py", "matching.py", "sweep.py", "sgm.py",
+                 "subpixel.py", "warp.py", "geometry.py", "homography.py", "layers.py")
 """The modules the depth stage's map comes from: a change in any of them makes the cached maps stale (a depth
 setting's docstring-only change does too; an edit to the soft edges does not)."""
 

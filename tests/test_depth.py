@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from vfxstereo import depth, samples
+from vfxstereo import depth, depth_plate, samples
 from vfxstereo.geometry import Camera
 from vfxstereo.homography import rectified_rig_matrices
 from vfxstereo.warp import Warper
@@ -424,7 +424,7 @@ def test_patch_errors_match_a_scipy_reference(rng):
     warper = Warper(Camera.from_positions([0.0, 1.0, 2.5], 1), np.arange(0.0, 4.0, 0.5), (20, 30))
     disparity = rng.uniform(0.0, 3.5, (20, 30)).astype(np.float32)
     gains = np.array([[1.1, 0.9, 1.0], [1.0, 1.0, 1.0], [0.8, 1.2, 1.05]], np.float32)
-    got = depth.patch_errors(views, warper, 1, disparity, gains, jitter=0.0, size=3)
+    got = depth_plate.patch_errors(views, warper, 1, disparity, gains, jitter=0.0, size=3)
     ys, xs = np.mgrid[0:20, 0:30]
     for n, k in enumerate((0, 2)):
         u = xs - disparity * (warper.camera.view_offset(k)[0])
@@ -447,8 +447,8 @@ def test_reopening_moves_filled_gaps_back_and_keeps_the_board(K, views_needed):
     assert (filled[gaps] == 12.0).all()  # the window's answer: the gaps take the board's depth
     config = replace(depth.DepthConfig(), reopen_views=views_needed)
     if K - 1 < depth.DepthConfig().reopen_views:  # by default a stereo pair's one other view cannot decide
-        assert depth.reopen_gaps(views, warper, ref, filled)[1] == 0
-    out, moved = depth.reopen_gaps(views, warper, ref, filled, config=config)
+        assert depth_plate.reopen_gaps(views, warper, ref, filled)[1] == 0
+    out, moved = depth_plate.reopen_gaps(views, warper, ref, filled, config=config)
     inner = ndimage.binary_erosion(gaps, iterations=1)  # a gap's rim pixels: the 3x3 window straddles the board
     assert np.mean(np.abs(out[inner] - gt[inner]) <= 0.5) > 0.9
     assert np.mean(np.abs(out[gaps] - gt[gaps]) <= 0.5) > 0.5
@@ -464,7 +464,7 @@ def test_reopening_leaves_gaps_over_a_plain_wall_alone():
     from scipy import ndimage
 
     filled = np.where(ndimage.binary_closing(board | gaps, iterations=4), 12.0, 0.0).astype(np.float32)
-    out, moved = depth.reopen_gaps(views, warper, ref, filled)
+    out, moved = depth_plate.reopen_gaps(views, warper, ref, filled)
     assert moved == 0 and np.array_equal(out, filled)
 
 
@@ -686,13 +686,13 @@ def test_colour_shares_kernel_matches_its_numpy_reference(rng):
 
     d = rng.choice([2.0, 2.2, 5.0, 9.0, 9.3], size=(30, 40)).astype(np.float32)
     colour = (rng.choice([0.1, 0.3, 0.5], size=(30, 40, 3)) + rng.uniform(0, 0.03, (30, 40, 3))).astype(np.float32)
-    off = depth.colour_offsets(6, 2)
+    off = depth_plate.colour_offsets(6, 2)
     assert len(off) == len({tuple(o) for o in off}) and (np.diff((off ** 2).sum(axis=1)) >= 0).all()
     target = np.empty(d.shape, np.float32)
     counts = np.empty(d.shape + (4,), np.int32)
     active = rng.random(d.shape) < 0.8
     _depth_kernels.colour_shares(d, colour, off, np.float32(0.04), np.float32(1.5), active, target, counts)
-    ref_target, ref_counts = depth.colour_shares_reference(d, colour, off, 0.04, 1.5)
+    ref_target, ref_counts = depth_plate.colour_shares_reference(d, colour, off, 0.04, 1.5)
     assert counts[..., 0].sum() > 100 and counts[..., 2].sum() > 100  # both kinds of neighbour occur
     np.testing.assert_array_equal(counts[active], ref_counts[active])
     np.testing.assert_allclose(target[active], ref_target[active], equal_nan=True)
@@ -720,12 +720,12 @@ def _fattened_board():
 
 def test_colour_reopening_gives_a_grown_rim_back_to_the_wall_and_nothing_else():
     colour, truth, fat = _fattened_board()
-    out, moved = depth.reopen_by_colour(fat, colour, radius=20, stride=2)
+    out, moved = depth_plate.reopen_by_colour(fat, colour, radius=20, stride=2)
     # the rim joins the wall it grew over (where the island's wall colour is out of reach: within it, the island
     # counts as the board's own colour, and the rim there may stay)
     np.testing.assert_array_equal(out[:30, 27:30], truth[:30, 27:30])
     assert np.all(out <= fat)  # never nearer
-    target, counts = depth.colour_shares_reference(fat, colour, depth.colour_offsets(20, 2), 0.04, 1.5)
+    target, counts = depth_plate.colour_shares_reference(fat, colour, depth_plate.colour_offsets(20, 2), 0.04, 1.5)
     nb, NB, nf, NF = np.moveaxis(counts[56:60, 38:42], -1, 0)
     assert np.all(nb / NB > 4.0 * nf / NF)  # the island's colour belongs to the wall within reach...
     assert np.all(out[56:60, 38:42] == 10.0)  # ...but it does not join the wall: it stays
@@ -782,8 +782,8 @@ def test_plane_errors_kernel_matches_its_numpy_reference(rng):
     ys = rng.integers(0, gt.shape[0], 300)
     xs = np.concatenate([rng.integers(0, gt.shape[1], 296), [0, 1, gt.shape[1] - 2, gt.shape[1] - 1]])
     for jitter, min_views in ((0.0, 1), (0.5, 3), (0.5, 4)):
-        fast = depth.plane_errors(views, warper, ref, ys, xs, gains, jitter=jitter, min_views=min_views)
-        slow = depth.plane_errors_reference(views, warper, ref, ys, xs, gains, jitter=jitter, min_views=min_views)
+        fast = depth_plate.plane_errors(views, warper, ref, ys, xs, gains, jitter=jitter, min_views=min_views)
+        slow = depth_plate.plane_errors_reference(views, warper, ref, ys, xs, gains, jitter=jitter, min_views=min_views)
         np.testing.assert_array_equal(np.isinf(fast), np.isinf(slow))
         np.testing.assert_allclose(fast[np.isfinite(fast)], slow[np.isfinite(slow)], rtol=1e-4, atol=1e-6)
         assert np.isinf(fast).any() == (min_views > 1)  # the frame-edge pixels leave some views at far planes
@@ -808,13 +808,13 @@ def test_thin_bars_the_window_erased_come_back_and_nothing_else_moves(monkeypatc
     wall = gt < 6
     assert np.mean(on.disparity[wall] > gt[wall] + 1) <= np.mean(off[wall] > gt[wall] + 1)
     assert "thin" in on.timings
-    monkeypatch.setattr(depth, "THIN_CHUNK", 97)  # the candidates scored a chunk at a time: the same map
-    np.testing.assert_array_equal(depth.recover_thin(views, warper, ref, off)[0], on.disparity)
+    monkeypatch.setattr(depth_plate, "THIN_CHUNK", 97)  # the candidates scored a chunk at a time: the same map
+    np.testing.assert_array_equal(depth_plate.recover_thin(views, warper, ref, off)[0], on.disparity)
     # a stereo pair has no view on the other side: nothing moves
     v2, w2, r2 = views[[2, 3]], Warper(Camera.from_positions(np.array([0.0, 1.0]), 0), warper.disparities,
                                        views.shape[1:3]), 0
     d2 = depth.robust_depth(v2, w2, r2, config=replace(depth.DepthConfig(), thin=False)).disparity
-    out, m = depth.recover_thin(v2, w2, r2, d2)
+    out, m = depth_plate.recover_thin(v2, w2, r2, d2)
     assert not m.any() and np.array_equal(out, d2)
     for bad in ({"thin_views": 0}, {"thin_ratio": 0.0}, {"thin_share": 1.5}, {"thin_size": 0}, {"thin_jump": -1.0}):
         with pytest.raises(VfxStereoError):
@@ -847,10 +847,10 @@ def _plain_wall_with_a_grown_strip(rng):
 
 def test_plain_join_gives_a_grown_strip_the_walls_depth_and_moves_nothing_else(rng):
     d, colour, _ = _plain_wall_with_a_grown_strip(rng)
-    out, moved = depth.join_plain(d, colour, anchor=8)
+    out, moved = depth_plate.join_plain(d, colour, anchor=8)
     strip = np.zeros(d.shape, bool)
     strip[:, 22:48] = True
-    strip &= depth.plain_pixels(colour)  # the strip's plain pixels
+    strip &= depth_plate.plain_pixels(colour)  # the strip's plain pixels
     assert strip.sum() > 0.9 * 64 * 24
     np.testing.assert_array_equal(out[strip], 2.0)
     np.testing.assert_array_equal(moved, strip)  # the boards, the subject and the d = 5 / d = 0 pair stay
@@ -858,7 +858,7 @@ def test_plain_join_gives_a_grown_strip_the_walls_depth_and_moves_nothing_else(r
     # the d = 0 region is a source where texture at its depth supports it: then the plain d = 5 region joins it
     colour2 = colour.copy()
     colour2[24:28, 124:] = rng.uniform(0.1, 0.9, (4, 16, 3))
-    out2, moved2 = depth.join_plain(d, colour2, anchor=8)
+    out2, moved2 = depth_plate.join_plain(d, colour2, anchor=8)
     assert np.all(out2[34:, 126:] == 0.0) and moved2[34:, 126:].all()
     assert np.array_equal(moved2[:, :110], moved[:, :110])
 
@@ -866,13 +866,13 @@ def test_plain_join_gives_a_grown_strip_the_walls_depth_and_moves_nothing_else(r
 def test_plain_join_keeps_a_strip_smaller_than_its_wall_and_puts_back_one_larger(rng):
     """``grow``: a plain surface takes a depth from a flood only where most of it already had that depth."""
     d, colour, _ = _plain_wall_with_a_grown_strip(rng)
-    flat = depth.plain_pixels(colour)
-    labels, n = depth.plain_surfaces(d, colour, flat)
+    flat = depth_plate.plain_pixels(colour)
+    labels, n = depth_plate.plain_surfaces(d, colour, flat)
     assert labels[~flat].max() == -1 and n > 4
     wall, strip = np.unique(labels[:, 16:22][flat[:, 16:22]]), np.unique(labels[:, 22:48][flat[:, 22:48]])
     assert len(wall) == 1 and len(strip) == 1 and wall[0] != strip[0]  # the wall's plain part, the strip
     # the strip (24 px wide) is larger than the plain wall beside it (6 px): with grow 0.5 it goes back
-    wide, moved = depth.join_plain(d, colour, anchor=8, grow=0.5)
+    wide, moved = depth_plate.join_plain(d, colour, anchor=8, grow=0.5)
     np.testing.assert_array_equal(wide, d)
     assert not moved.any()
     # grown by 8 px only, beside 24 px of plain wall (a speck of texture in it supports its depth near the
@@ -881,14 +881,14 @@ def test_plain_join_keeps_a_strip_smaller_than_its_wall_and_puts_back_one_larger
     d2[:, 22:40] = 2.0
     colour = colour.copy()
     colour[30:34, 34:38] = rng.uniform(0.1, 0.9, (4, 4, 3))
-    flat = depth.plain_pixels(colour)
-    narrow, moved2 = depth.join_plain(d2, colour, anchor=8, grow=0.5)
+    flat = depth_plate.plain_pixels(colour)
+    narrow, moved2 = depth_plate.join_plain(d2, colour, anchor=8, grow=0.5)
     plain_strip = np.zeros(d.shape, bool)
     plain_strip[:, 40:48] = True
     plain_strip &= flat
     assert plain_strip.sum() > 0.9 * 64 * 6
     np.testing.assert_array_equal(moved2, plain_strip)
-    np.testing.assert_array_equal(narrow, depth.join_plain(d2, colour, anchor=8)[0])
+    np.testing.assert_array_equal(narrow, depth_plate.join_plain(d2, colour, anchor=8)[0])
 
 
 def test_plain_join_leaves_a_slope_the_map_reaches_smoothly(rng):
@@ -904,16 +904,16 @@ def test_plain_join_leaves_a_slope_the_map_reaches_smoothly(rng):
     d = np.broadcast_to(np.where(x < 22, 2.0, 2.0 + 0.15 * (x - 22)), (h, w)).astype(np.float32).copy()
     d[:32, 22:] += 2.0  # the upper half steps by 2 px at column 22 ...
     d[28:36, 22:] = np.linspace(d[27, 22:], d[36, 22:], 10)[1:-1]  # ... and runs smoothly into the lower half
-    flat = depth.plain_pixels(colour)
-    flattened, moved = depth.join_plain(d, colour, anchor=8)
+    flat = depth_plate.plain_pixels(colour)
+    flattened, moved = depth_plate.join_plain(d, colour, anchor=8)
     assert moved[:28, 22:][flat[:28, 22:]].mean() > 0.9  # without the test: the upper half flattened to d = 2
     assert np.all(flattened[moved] == 2.0)
-    kept, moved2 = depth.join_plain(d, colour, anchor=8, slopes=True)
+    kept, moved2 = depth_plate.join_plain(d, colour, anchor=8, slopes=True)
     assert not moved2.any()
     np.testing.assert_array_equal(kept, d)
     colour2 = colour.copy()
     colour2[28:, 16:] = (0.2, 0.3, 0.6)  # the lower half another colour: nothing links the two sides smoothly
-    _, moved3 = depth.join_plain(d, colour2, anchor=8, slopes=True)
+    _, moved3 = depth_plate.join_plain(d, colour2, anchor=8, slopes=True)
     assert moved3[:26, 22:][flat[:26, 22:]].mean() > 0.9
 
 
@@ -925,15 +925,15 @@ def test_plain_surfaces_kernel_gives_the_partition_of_its_graph_reference(rng):
         return np.vectorize(lambda v: lookup.get(v, -1))(labels)
 
     d, colour, _ = _plain_wall_with_a_grown_strip(rng)
-    flat = depth.plain_pixels(colour)
+    flat = depth_plate.plain_pixels(colour)
     cases = [(d, colour, flat)]
     for _ in range(3):  # random maps: steps, slopes and colours that join some neighbours and not others
         dr = (rng.integers(0, 4, (30, 40)) * 0.6 + np.arange(40) * 0.1).astype(np.float32)
         col = (0.5 + rng.uniform(-0.03, 0.03, (30, 40, 3))).astype(np.float32)
         cases.append((dr, col, rng.uniform(size=dr.shape) < 0.85))
     for dd, col, fl in cases:
-        got, n = depth.plain_surfaces(dd, col, fl)
-        want, _ = depth.plain_surfaces_reference(dd, col, fl)
+        got, n = depth_plate.plain_surfaces(dd, col, fl)
+        want, _ = depth_plate.plain_surfaces_reference(dd, col, fl)
         np.testing.assert_array_equal(got, canonical(want))
         assert n == got.max() + 1 and got.dtype == np.int32
         assert 1 < n < fl.sum()
@@ -941,10 +941,10 @@ def test_plain_surfaces_kernel_gives_the_partition_of_its_graph_reference(rng):
 
 def test_plain_join_kernel_matches_its_numpy_reference(rng):
     d, colour, A = _plain_wall_with_a_grown_strip(rng)
-    flat = depth.plain_pixels(colour)
-    source = depth.anchored(d, ~flat, 8) & flat
-    ref = depth.join_plain_reference(d, colour, flat, source, 0.04, 1.5)
-    np.testing.assert_array_equal(depth.join_plain(d, colour, anchor=8)[0], ref.astype(np.float32))
+    flat = depth_plate.plain_pixels(colour)
+    source = depth_plate.anchored(d, ~flat, 8) & flat
+    ref = depth_plate.join_plain_reference(d, colour, flat, source, 0.04, 1.5)
+    np.testing.assert_array_equal(depth_plate.join_plain(d, colour, anchor=8)[0], ref.astype(np.float32))
     # random depths over one plain colour, random sources: the flood's colours never compete
     for _ in range(3):
         dr = rng.integers(0, 16, (40, 50)).astype(np.float32)
@@ -957,7 +957,7 @@ def test_plain_join_kernel_matches_its_numpy_reference(rng):
         for reach in (0, 3):
             got, s, c = dr.copy(), src.copy(), col.copy()
             _depth_kernels.join_plain_flood(got, s, c, col, fl, np.float32(0.04), np.float32(1.5), reach)
-            want = depth.join_plain_reference(dr, col, fl, src, 0.04, 1.5, reach)
+            want = depth_plate.join_plain_reference(dr, col, fl, src, 0.04, 1.5, reach)
             assert np.abs(got - want).max() == 0.0
 
 
@@ -987,16 +987,16 @@ def test_views_confirm_keeps_a_move_the_views_see_and_puts_back_one_they_contrad
     wrong &= wall
     before[right] = 6.0  # the map had it wrong; the move gives the wall back
     after[wrong] = 6.0  # the map had it right; the move takes the wall away
-    out = depth.views_confirm(views, warper, ref, before, after)
+    out = depth_plate.views_confirm(views, warper, ref, before, after)
     np.testing.assert_array_equal(out[right], 1.0)
     np.testing.assert_array_equal(out[wrong], 1.0)
     np.testing.assert_array_equal(out[~(right | wrong)], before[~(right | wrong)])
-    np.testing.assert_array_equal(depth.views_confirm(views, warper, ref, before, before), before)
+    np.testing.assert_array_equal(depth_plate.views_confirm(views, warper, ref, before, before), before)
     # step 11's errors of the same map, kept and passed on, give the same answer (the stage reuses them)
     kept = {}
-    depth.recover_thin(views, warper, ref, before, keep=kept)
+    depth_plate.recover_thin(views, warper, ref, before, keep=kept)
     assert set(kept) == {"gains", "errors", "seen"} and kept["errors"].shape == (views.shape[0] - 1,) + gt.shape
-    reused = depth.views_confirm(views, warper, ref, before, after, gains=kept["gains"],
+    reused = depth_plate.views_confirm(views, warper, ref, before, after, gains=kept["gains"],
                                  before_errors=(kept["errors"], kept["seen"]))
     np.testing.assert_array_equal(reused, out)
 
@@ -1017,17 +1017,17 @@ def _board_with_a_claiming_edge(rng, *, board_depth=0.0, ridge_rows=40, dots=Fal
     d[:ridge_rows, 49] = 12.0
     board = np.zeros((h, w), bool)
     board[:40, :50] = True
-    board &= depth.plain_pixels(colour)
+    board &= depth_plate.plain_pixels(colour)
     return d, colour, board
 
 
 def test_a_plain_board_takes_the_depth_of_the_edge_that_claims_it(rng):
     d, colour, board = _board_with_a_claiming_edge(rng)
     assert board.sum() == 38 * 48
-    ridge, side, behind = depth.edge_ridges(d, depth.plain_pixels(colour))
+    ridge, side, behind = depth_plate.edge_ridges(d, depth_plate.plain_pixels(colour))
     assert ridge[:38, 49].all() and (side[:38, 49] == 1).all() and np.all(behind[:38, 49] == 2.0)
     assert ridge.sum() == 38  # the rows with plain board beside the edge; no other pixel
-    out, moved = depth.own_edges(d, colour)
+    out, moved = depth_plate.own_edges(d, colour)
     np.testing.assert_array_equal(moved, board)  # the board's plain pixels, and nothing else
     np.testing.assert_array_equal(out[board], 12.0)
     np.testing.assert_array_equal(out[~board], d[~board])
@@ -1039,17 +1039,17 @@ def test_edge_ownership_leaves_a_region_the_edge_does_not_claim(rng, case):
     line), an edge on fewer than ``rows`` rows, and a speckled region stay where they are."""
     kw = {"thin structure": {"board_depth": 2.0}, "short edge": {"ridge_rows": 6}, "speckled": {"dots": True}}[case]
     d, colour, _ = _board_with_a_claiming_edge(rng, **kw)
-    out, moved = depth.own_edges(d, colour)
+    out, moved = depth_plate.own_edges(d, colour)
     assert not moved.any()
     np.testing.assert_array_equal(out, d)
     if case == "short edge":  # the same edge on 8 rows claims the board
         d8, colour8, board8 = _board_with_a_claiming_edge(rng, ridge_rows=8)
-        assert depth.own_edges(d8, colour8)[1].sum() == board8.sum()
+        assert depth_plate.own_edges(d8, colour8)[1].sum() == board8.sum()
 
 
 def test_edge_ridges_kernel_matches_its_numpy_reference(rng):
     d, colour, _ = _board_with_a_claiming_edge(rng)
-    cases = [(d, depth.plain_pixels(colour))]
+    cases = [(d, depth_plate.plain_pixels(colour))]
     for _ in range(3):  # random maps over random plain and textured blocks
         flat = np.kron(rng.random((12, 16)) < 0.5, np.ones((5, 7), bool))
         flat &= rng.random(flat.shape) < 0.95
@@ -1057,13 +1057,13 @@ def test_edge_ridges_kernel_matches_its_numpy_reference(rng):
         dr += rng.normal(0, 0.4, dr.shape).astype(np.float32)
         cases.append((dr, flat))
     for dm, flat in cases:
-        got = depth.edge_ridges(dm, flat)
-        want = depth.edge_ridges_reference(dm, flat)
+        got = depth_plate.edge_ridges(dm, flat)
+        want = depth_plate.edge_ridges_reference(dm, flat)
         np.testing.assert_array_equal(got[0], want[0])
         np.testing.assert_array_equal(got[1], want[1])
         np.testing.assert_allclose(got[2], want[2], rtol=1e-6, equal_nan=True)
         assert want[0].any() or dm is not d
-    assert sum(int(depth.edge_ridges_reference(dm, f)[0].sum()) for dm, f in cases[1:]) > 20
+    assert sum(int(depth_plate.edge_ridges_reference(dm, f)[0].sum()) for dm, f in cases[1:]) > 20
 
 
 def test_edge_ownership_is_on_by_default_and_its_settings_are_checked():
@@ -1081,15 +1081,15 @@ def test_a_claim_that_floods_over_another_edges_seeds_does_not_count_their_rows(
     d, colour, board = _board_with_a_claiming_edge(rng)
     colour[:, :10] = rng.uniform(0.1, 0.9, (64, 10, 3))  # texture left of the board
     d[:, :10] = 2.0
-    board &= depth.plain_pixels(colour)
+    board &= depth_plate.plain_pixels(colour)
     d[20:22, 10] = 15.0  # the short edge, nearer than the board's own
-    ridge = depth.edge_ridges(d, depth.plain_pixels(colour))[0]
+    ridge = depth_plate.edge_ridges(d, depth_plate.plain_pixels(colour))[0]
     assert ridge[20:22, 10].all() and ridge[:38, 49].all()
-    out, moved = depth.own_edges(d, colour)
+    out, moved = depth_plate.own_edges(d, colour)
     assert not moved.any()
     # without the short edge the board is claimed at 12
     d[20:22, 10] = 2.0
-    out, moved = depth.own_edges(d, colour)
+    out, moved = depth_plate.own_edges(d, colour)
     np.testing.assert_array_equal(moved, board)
 
 
@@ -1115,7 +1115,7 @@ def _grille_over_a_wall(rng):
     d[:, :80] = 10.0
     d[subject] = 10.0
     rival = d.copy()
-    flat = depth.plain_pixels(colour)
+    flat = depth_plate.plain_pixels(colour)
     cells = flat & ~bars
     cells[:, 80:] = False
     rival[cells] = 2.0
@@ -1125,9 +1125,9 @@ def _grille_over_a_wall(rng):
 
 def test_grille_cells_send_a_wall_seen_through_a_grille_back_and_keep_a_plain_subject(rng):
     d, rival, colour, cells, subject = _grille_over_a_wall(rng)
-    flat = depth.plain_pixels(colour)
+    flat = depth_plate.plain_pixels(colour)
     assert cells.sum() > 1000 and subject.sum() > 500
-    out, moved = depth.grille_cells(d, rival, colour, flat, ring=8)  # 12 px: the last column sees the blue wall
+    out, moved = depth_plate.grille_cells(d, rival, colour, flat, ring=8)  # 12 px: the last column sees the blue wall
     np.testing.assert_array_equal(moved, cells)  # every plain cell pixel, and not the subject
     np.testing.assert_array_equal(out[cells], 2.0)
     np.testing.assert_array_equal(out[~cells], d[~cells])
@@ -1139,7 +1139,7 @@ def test_grille_cells_send_a_wall_seen_through_a_grille_back_and_keep_a_plain_su
     for n, y in enumerate(range(2, 72, 12)):
         if n % 2:
             odd[y:y + 10, :80] = np.where(cells[y:y + 10, :80, None], (0.7, 0.6, 0.1), odd[y:y + 10, :80])
-    assert depth.grille_cells(d, rival, odd, flat, share=0.9, ring=8)[1].sum() < cells.sum() // 2
+    assert depth_plate.grille_cells(d, rival, odd, flat, share=0.9, ring=8)[1].sum() < cells.sum() // 2
 
 
 def test_grille_cells_keep_a_plain_subject_the_map_split_into_depths(rng):
@@ -1158,18 +1158,18 @@ def test_grille_cells_keep_a_plain_subject_the_map_split_into_depths(rng):
     d[block] = 13.0
     rival = d.copy()
     rival[block] = 2.0
-    flat = depth.plain_pixels(colour)
+    flat = depth_plate.plain_pixels(colour)
     assert flat[block].all()
-    np.testing.assert_array_equal(depth.grille_cells(d, rival, colour, flat, ring=12, across=False)[1], block)
-    out, moved = depth.grille_cells(d, rival, colour, flat, ring=12, across=True)
+    np.testing.assert_array_equal(depth_plate.grille_cells(d, rival, colour, flat, ring=12, across=False)[1], block)
+    out, moved = depth_plate.grille_cells(d, rival, colour, flat, ring=12, across=True)
     assert not moved.any()
     # what the map already has around at the depth the block would take does count: the subject at d = 2 already
     d2 = np.where(subject & ~block, np.float32(2.0), d)
-    np.testing.assert_array_equal(depth.grille_cells(d2, rival, colour, flat, ring=12, across=True)[1], block)
+    np.testing.assert_array_equal(depth_plate.grille_cells(d2, rival, colour, flat, ring=12, across=True)[1], block)
     g, grival, gcolour, cells, _ = _grille_over_a_wall(rng)
-    gflat = depth.plain_pixels(gcolour)
-    moved = depth.grille_cells(g, grival, gcolour, gflat, ring=12, across=True)[1]
-    np.testing.assert_array_equal(moved, depth.grille_cells(g, grival, gcolour, gflat, ring=12, across=False)[1])
+    gflat = depth_plate.plain_pixels(gcolour)
+    moved = depth_plate.grille_cells(g, grival, gcolour, gflat, ring=12, across=True)[1]
+    np.testing.assert_array_equal(moved, depth_plate.grille_cells(g, grival, gcolour, gflat, ring=12, across=False)[1])
     assert moved.sum() > 0.9 * cells.sum() and not (moved & ~cells).any()  # the last column sees the blue wall
 
 
@@ -1178,13 +1178,13 @@ def test_spread_cells_carry_the_wall_from_cell_to_cell_and_keep_a_plain_subject(
     wall's depth crosses the bars until every cell has it; the plain red subject (blue wall around it) stays, and
     so does a block of a plain subject the map split into depths (only its own colour around it)."""
     d, _, colour, cells, subject = _grille_over_a_wall(rng)
-    flat = depth.plain_pixels(colour)
+    flat = depth_plate.plain_pixels(colour)
     first = cells & (np.arange(d.shape[1]) < 12)[None, :]
     d[first] = 2.0
     rest = cells & ~first
-    one, moved1 = depth.spread_cells(d, colour, flat, ring=8, rounds=1)
+    one, moved1 = depth_plate.spread_cells(d, colour, flat, ring=8, rounds=1)
     assert 0 < moved1.sum() < rest.sum() // 2 and not (moved1 & ~rest).any()  # the next column only
-    out, moved = depth.spread_cells(d, colour, flat, ring=8, rounds=12)
+    out, moved = depth_plate.spread_cells(d, colour, flat, ring=8, rounds=12)
     np.testing.assert_array_equal(moved, rest)
     np.testing.assert_array_equal(out[rest], 2.0)
     np.testing.assert_array_equal(out[~rest], d[~rest])
@@ -1192,7 +1192,7 @@ def test_spread_cells_carry_the_wall_from_cell_to_cell_and_keep_a_plain_subject(
     # no cell beside the first column has its colour: nothing spreads
     odd = colour.copy()
     odd[:, 14:24] = np.where(cells[:, 14:24, None], (0.2, 0.3, 0.7), odd[:, 14:24])
-    assert not depth.spread_cells(d, odd, depth.plain_pixels(odd), ring=8, rounds=12)[1].any()
+    assert not depth_plate.spread_cells(d, odd, depth_plate.plain_pixels(odd), ring=8, rounds=12)[1].any()
     # a plain subject split by the map: its block sees only its own colour around it
     h, w = 90, 90
     c2 = np.empty((h, w, 3), np.float32)
@@ -1201,7 +1201,7 @@ def test_spread_cells_carry_the_wall_from_cell_to_cell_and_keep_a_plain_subject(
     d2 = np.full((h, w), 2.0, np.float32)
     d2[10:80, 10:80] = 10.0
     d2[40:50, 40:50] = 13.0
-    assert not depth.spread_cells(d2, c2, depth.plain_pixels(c2), ring=12, rounds=4)[1].any()
+    assert not depth_plate.spread_cells(d2, c2, depth_plate.plain_pixels(c2), ring=12, rounds=4)[1].any()
 
 
 def test_grille_cells_are_on_by_default_and_their_settings_are_checked():

@@ -629,7 +629,7 @@ def plane_errors(views, reference, others, gains, offsets, ys, xs, disparities, 
     Per view k in ``others`` (``views[k]``, offset ``offsets[k]`` in view steps, rectified: the pixel lands at
     ``(x - d ox, y - d oy)``): the least over ``disparities[i] + shifts`` of ``|gains[k] I_k(u) - I_ref|^2``
     (bilinear), over the shifts that land inside the view; the result is the largest of those over the views,
-    or inf when fewer than ``min_views`` views have one. Plain numpy reference: ``depth.plane_errors_reference``.
+    or inf when fewer than ``min_views`` views have one. Plain numpy reference: ``depth_plate.plane_errors_reference``.
     """
     N = ys.shape[0]
     D = disparities.shape[0]
@@ -668,7 +668,7 @@ def _alike(a, y, x, b, yy, xx, like):
 
 @njit(cache=True, nogil=True)
 def join_plain_flood(d, source, carried, colour, flat, like, jump, max_rounds):
-    """Step 12's flood (:func:`vfxstereo.depth.join_plain`), in rounds, from the pixels that changed.
+    """Step 12's flood (:func:`vfxstereo.depth_plate.join_plain`), in rounds, from the pixels that changed.
 
     ``d`` and ``carried`` change in place. In each round every flat pixel takes the farthest disparity offered by
     its 4-neighbours that are flat sources, farther than the pixel's disparity (as it was at the start of the
@@ -677,8 +677,9 @@ def join_plain_flood(d, source, carried, colour, flat, like, jump, max_rounds):
     first round's sources are the flat ``source`` pixels; after that only the pixels that changed in a round can
     offer anything new in the next, so each round visits only those: the flood advances one
     pixel per round from every source at once (the nearest source reaches a pixel first), as
-    :func:`vfxstereo.depth.join_plain_reference` does over the whole plate. At most ``max_rounds`` rounds (0: until
-    nothing changes), so nothing moves farther than that many 4-connected steps from where the flood started.
+    :func:`vfxstereo.depth_plate.join_plain_reference` does over the whole plate. At most ``max_rounds`` rounds
+    (0: until nothing changes), so nothing moves farther than that many 4-connected steps from where the flood
+    started.
     Returns the number of rounds.
     """
     H, W = d.shape
@@ -744,7 +745,7 @@ def _root(parent, i):
 
 @njit(cache=True, nogil=True)
 def plain_surfaces(d, colour, flat, tolerance, like, labels):
-    """:func:`vfxstereo.depth.plain_surfaces` by union-find; returns the number of surfaces.
+    """:func:`vfxstereo.depth_plate.plain_surfaces` by union-find; returns the number of surfaces.
 
     ``labels`` (H, W) int32 gets each flat pixel's surface, numbered 0, 1, ... in raster order of their first
     pixel, and -1 elsewhere. Two 4-neighbours are joined where both are flat, their disparities differ by at
@@ -792,10 +793,10 @@ def plain_surfaces(d, colour, flat, tolerance, like, labels):
 
 @njit(cache=True, parallel=True, nogil=True)
 def edge_ridges(d, flat, radius, share, b0, b1, jump, far, ridge, side, behind):
-    """Step 13's claiming edges (:func:`vfxstereo.depth.edge_ridges`), one row per thread.
+    """Step 13's claiming edges (:func:`vfxstereo.depth_plate.edge_ridges`), one row per thread.
 
     Fills ``ridge`` (bool), ``side`` (int8) and ``behind`` (float32, NaN off the ridge), which the caller sets to
-    False, 0 and NaN; :func:`vfxstereo.depth.edge_ridges_reference` is its numpy version.
+    False, 0 and NaN; :func:`vfxstereo.depth_plate.edge_ridges_reference` is its numpy version.
     """
     H, W = d.shape
     for y in prange(H):
