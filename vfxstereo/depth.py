@@ -69,7 +69,11 @@ views 0.69x; the mean with one visibility pass 0.66x (and 0.56x over all 31 sets
 
 @dataclass(frozen=True)
 class DepthConfig:
-    """Settings of :func:`robust_depth`."""
+    """Settings of :func:`robust_depth`.
+
+    The functions of steps 9-16 that the notes below name (``reopen_gaps``, ``reopen_by_colour``, ``join_plain``,
+    ``views_confirm``, ...) are in :mod:`vfxstereo.depth_plate`.
+    """
 
     matching: matching.MatchingParams = field(default_factory=matching.MatchingParams)
     box: int = 5
