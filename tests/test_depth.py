@@ -967,7 +967,7 @@ def test_plain_join_settings_are_checked():
     assert depth.DepthConfig().join and depth.DepthConfig().join_slopes and depth.DepthConfig().join_grow > 0
     for bad in ({"join_plain": 0.0}, {"join_like": 0.0}, {"join_jump": -1.0}, {"join_anchor": -1},
                 {"join_ratio": 0.0}, {"join_floor": -1.0}, {"join_share": 1.5}, {"join_reach": -1},
-                {"join_grow": -0.5}):
+                {"join_grow": -0.5}, {"join_unseen": -0.01}):
         with pytest.raises(VfxStereoError):
             depth.DepthConfig(**bad)
 
@@ -999,6 +999,30 @@ def test_views_confirm_keeps_a_move_the_views_see_and_puts_back_one_they_contrad
     reused = depth_plate.views_confirm(views, warper, ref, before, after, gains=kept["gains"],
                                  before_errors=(kept["errors"], kept["seen"]))
     np.testing.assert_array_equal(reused, out)
+
+
+def test_views_confirm_judges_a_move_from_a_depth_no_view_sees_by_its_new_error_alone():
+    """A stereo pair over the bars scene's wall: a strip along the frame edge that the map had at d = 12, where the
+    other view does not see it (out of its frame). Moved back to the wall (d = 1), the views see it there with a
+    small error (the fine texture resampled, above ``floor``): compared with an old error of 0, the plain floor
+    puts the right move back; ``unseen_floor`` keeps it. A move to d = 3, where the view sees other texture, goes
+    back either way."""
+    views, warper, ref, gt, _ = _bars_over_texture(K=2)
+    strip = np.zeros(gt.shape, bool)
+    strip[20:80, 0:12] = True
+    strip &= np.abs(gt - 1.0) < 1e-6
+    before = gt.astype(np.float32).copy()
+    before[strip] = 12.0
+    e0, s0 = depth_plate.seen_errors(views, warper, ref, before, np.ones((2, 3), np.float32), jitter=0.5)
+    assert not np.isfinite(np.where(s0, e0, np.inf).min(axis=0)[strip]).any()  # no view sees the old depth
+    right, wrong = gt.astype(np.float32).copy(), before.copy()
+    wrong[strip] = 3.0
+    for unseen, keeps_right in ((None, False), (0.02, True)):
+        out = depth_plate.views_confirm(views, warper, ref, before, right, unseen_floor=unseen)
+        assert np.mean(out[strip] == 1.0) > 0.95 if keeps_right else np.mean(out[strip] == 1.0) < 0.05
+        out = depth_plate.views_confirm(views, warper, ref, before, wrong, unseen_floor=unseen)
+        assert np.mean(out[strip] == 3.0) < 0.05
+        np.testing.assert_array_equal(out[~strip], before[~strip])
 
 
 def _board_with_a_claiming_edge(rng, *, board_depth=0.0, ridge_rows=40, dots=False):

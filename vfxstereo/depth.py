@@ -490,8 +490,34 @@ class DepthConfig:
     """:func:`views_confirm`'s ``ratio``."""
     join_floor: float = 0.002
     """:func:`views_confirm`'s ``floor`` (colour^2)."""
-    join_share: float = 0.1
-    """:func:`views_confirm`'s ``share``."""
+    join_unseen: float | None = 0.02
+    """:func:`views_confirm`'s ``unseen_floor`` (colour^2; None: ``join_floor``): for a moved pixel whose old
+    depth no view sees (a strip along the frame edge that the other views' frames leave out at that depth),
+    there is no old error to compare with, and the move counts against its group only where the views see the
+    new depth with an error above this. With ``join_floor`` (0.002) there, a plain wall's own error at its right
+    depth (0.002-0.01 on flowers_fence K = 2's left cells) put right cells back. Added in session 37 (numbers
+    under ``join_share``)."""
+    join_share: float = 0.5
+    """:func:`views_confirm`'s ``share``: a group of moved pixels stands unless more than this share of the
+    pixels some view sees at their new depth are seen there with a larger error (``join_ratio``, ``join_floor``,
+    ``join_unseen``).
+
+    0.1 until session 37. With 0.1 the check put back whole grille cells that steps 14-16 had sent to the
+    wall's depth, every pixel of them right: on a stereo pair's fence over a plain wall (flowers_fence K = 2)
+    the cells along the frame edge (see ``join_unseen``), and cells whose few bad pixels (11-36 %) sit where
+    the view sees a bar the map still draws too wide. Measured in session 37, z-key tuning rows (278, frame /
+    band dB; rows losing to the SGBM key), against 0.1: 0.25 +0.02 / +0.02; 0.35 +0.05 / +0.04, losing 14 / 8
+    either way (flowers_fence K = 2 +1.45 / +0.98, ostrich_grille K = 2 +0.99 / +0.76, K = 5 +0.58 / +0.57;
+    worst doll_plaster K = 2 -1.00 / -1.15: a patch of its wall at 1.7 px goes from 13 to 0, both wrong);
+    0.5 +0.07 / +0.05; 0.7 the same as 0.5. With ``join_unseen`` 0.02: at 0.35 +0.07 / +0.05, at **0.5 +0.08 /
+    +0.06** (30.77 / 24.80 -> 30.85 / 24.85), losing 14 / 8 -> 14 / 7 (flowers_fence K = 2's card at d = 4
+    turns to winning on the band: -0.42 -> +0.10; flowers_fence K = 2 +2.2 / +1.5, ostrich_grille K = 2
+    +1.4 / +1.0, K = 5 +0.7 / +0.8; worst doll_plaster K = 2, as above). flowers_fence K = 2's wall within
+    1 px: 47.8 -> 74.6 % (99.8 % of the pixels that move go back, to the truth). Held-out rows (60, scored
+    once after the choice): 27.49 / 21.65 -> 27.58 / 21.71, none losing (wicker_grille_dolls K = 2 +0.57 /
+    +0.24, board_fence_toy K = 2 +0.22 / +0.24; worst railing_subject_rocks K = 5 -0.03 / -0.01).
+    Middlebury, depth only, all 31 sets: from all views 9.20 % either way (no set moves by more than 0.01),
+    from the classic pair 14.32 -> 14.33 % (Baby2 10.85 -> 11.09, Baby1 8.87 -> 9.02)."""
     own: bool = True
     """Step 13 (:func:`own_edges`), on the whole plate: a plain region takes the depth of a textured edge beside it
     that is nearer than the region and than the texture beyond the edge (the edge moves with the plain side, so it
@@ -695,9 +721,9 @@ class DepthConfig:
                                  "own_margin >= 0")
         if not (self.join_plain > 0 and self.join_like > 0 and self.join_jump >= 0 and self.join_anchor >= 0
                 and self.join_reach >= 0 and self.join_grow >= 0 and self.join_ratio > 0 and self.join_floor >= 0
-                and 0 <= self.join_share <= 1):
+                and 0 <= self.join_share <= 1 and (self.join_unseen is None or self.join_unseen >= 0)):
             raise VfxStereoError("depth settings: join_plain, join_like, join_ratio > 0, join_jump, join_anchor, "
-                                 "join_reach, join_grow, join_floor >= 0, 0 <= join_share <= 1")
+                                 "join_reach, join_grow, join_floor, join_unseen >= 0, 0 <= join_share <= 1")
 
 
 @dataclass

@@ -120,6 +120,7 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
         if moved.any() and config.join_check:
             proposed = views_confirm(views, warper, reference, res.disparity, proposed, jitter=config.reopen_jitter,
                                      ratio=config.join_ratio, floor=config.join_floor, share=config.join_share,
+                                     unseen_floor=config.join_unseen,
                                      gains=kept.get("gains"),
                                      before_errors=(kept["errors"], kept["seen"]) if kept else None)
             moved = proposed != res.disparity
@@ -938,16 +939,19 @@ def seen_errors(views: np.ndarray, warper, reference: int, disparity: np.ndarray
 
 def views_confirm(views: np.ndarray, warper, reference: int, before: np.ndarray, after: np.ndarray, *,
                   gains: np.ndarray | None = None, jitter: float = 0.5, ratio: float = 4.0, floor: float = 0.002,
-                  share: float = 0.1, before_errors: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+                  share: float = 0.1, before_errors: tuple[np.ndarray, np.ndarray] | None = None,
+                  unseen_floor: float | None = None) -> np.ndarray:
     """``after`` with the groups of moved pixels the views contradict put back to ``before``.
 
     A group (8-connected pixels where the maps differ) is contradicted where more than ``share`` of its pixels
     that some view sees at their new depth (:func:`seen_errors`, within ``jitter``) are seen there with an error
     (least over those views) above ``ratio`` times the error at their old depth (least over the views that see
-    them there; 0 where none does) plus ``floor``. A plain surface moved behind a near one it is not part of
-    passes (the views see plain colour there too); one moved where the views see its edge, or another surface,
-    does not. ``before_errors``: :func:`seen_errors` of ``before`` with these ``gains`` and ``jitter``, where
-    they are known already (:func:`recover_thin`'s ``keep``).
+    them there; 0 where none does) plus ``floor`` (``unseen_floor``, where given, for the pixels whose old depth
+    no view sees: nothing to compare with there, only whether the views see the new depth badly). A plain
+    surface moved behind a near one it is not part of passes (the views see plain colour there too); one moved
+    where the views see its edge, or another surface, does not. ``before_errors``: :func:`seen_errors` of
+    ``before`` with these ``gains`` and ``jitter``, where they are known already (:func:`recover_thin`'s
+    ``keep``).
     """
     from scipy import ndimage
 
@@ -966,7 +970,8 @@ def views_confirm(views: np.ndarray, warper, reference: int, before: np.ndarray,
     old = np.where(s0, e0, np.inf).min(axis=0)
     new = np.where(s1, e1, np.inf).min(axis=0)
     seen = np.isfinite(new) & moved
-    bad = seen & (new > ratio * np.where(np.isfinite(old), old, 0.0) + floor)
+    limit = np.where(np.isfinite(old), ratio * old + floor, floor if unseen_floor is None else unseen_floor)
+    bad = seen & (new > limit)
     labels, n = ndimage.label(moved, structure=np.ones((3, 3), bool))
     keep = np.bincount(labels[bad], minlength=n + 1) <= share * np.maximum(np.bincount(labels[seen],
                                                                                        minlength=n + 1), 1)
