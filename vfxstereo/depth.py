@@ -506,10 +506,10 @@ class DepthConfig:
     wall's depth, every pixel of them right: on a stereo pair's fence over a plain wall (flowers_fence K = 2)
     the cells along the frame edge (see ``join_unseen``), and cells whose few bad pixels (11-36 %) sit where
     the view sees a bar the map still draws too wide. Measured in session 37, z-key tuning rows (278, frame /
-    band dB; rows losing to the SGBM key), against 0.1: 0.25 +0.02 / +0.02; 0.35 +0.05 / +0.04, losing 14 / 8
+    band dB; rows losing to the SGBM key), against 0.1: 0.25 +0.03 / +0.02; 0.35 +0.05 / +0.04, losing 14 / 8
     either way (flowers_fence K = 2 +1.45 / +0.98, ostrich_grille K = 2 +0.99 / +0.76, K = 5 +0.58 / +0.57;
     worst doll_plaster K = 2 -1.00 / -1.15: a patch of its wall at 1.7 px goes from 13 to 0, both wrong);
-    0.5 +0.07 / +0.05; 0.7 the same as 0.5. With ``join_unseen`` 0.02: at 0.35 +0.07 / +0.05, at **0.5 +0.08 /
+    0.5 +0.07 / +0.05; 0.7 the same as 0.5. With ``join_unseen`` 0.02: at 0.35 +0.07 / +0.05, at **0.5 +0.07 /
     +0.06** (30.77 / 24.80 -> 30.85 / 24.85), losing 14 / 8 -> 14 / 7 (flowers_fence K = 2's card at d = 4
     turns to winning on the band: -0.42 -> +0.10; flowers_fence K = 2 +2.2 / +1.5, ostrich_grille K = 2
     +1.4 / +1.0, K = 5 +0.7 / +0.8; worst doll_plaster K = 2, as above). flowers_fence K = 2's wall within
