@@ -1237,6 +1237,6 @@ def test_grille_cells_are_on_by_default_and_their_settings_are_checked():
 
     for bad in ({"cells_rival": 0.0}, {"cells_share": 1.5}, {"cells_like": 0.0}, {"cells_ring": 1},
                 {"cells_jump": -1.0}, {"cells_spread": -1}, {"cells_farther": 1.5}, {"colour_again": -1.0},
-                {"colour_again_near": -1}):
+                {"colour_again_near": -1}, {"spread_share": 1.5}, {"spread_share": -0.1}):
         with pytest.raises(VfxStereoError):
             depth.DepthConfig(**bad)

@@ -659,6 +659,24 @@ class DepthConfig:
       from the classic pair 14.20 -> 14.24 % (Baby1 6.5 -> 7.4, Baby2 9.6 -> 10.0, Lampshade1 14.4 -> 14.2).
 
     Step 16 (``colour_again``) then pulls the bars' rims back to the cells it sent back."""
+    spread_share: float | None = 0.45
+    """Step 15's ``share`` (None: ``cells_share``): the share of the plain pixels across a cell's bars that must
+    have its colour. Step 14 keeps ``cells_share`` (0.7) for the first cells; the spread steps from cells
+    already right, and the views check each move. Cells over two backgrounds (ostrich_grille's bottom right:
+    the card and the wall meet under the grille) see half the one, half the other across their bars and stayed
+    at the bars' depth with 0.7.
+
+    Added in session 37 (0.7 before, as ``cells_share``). Measured with the session's views' check
+    (``join_share`` 0.5, ``join_unseen`` 0.02), z-key tuning rows (278, frame / band dB): 30.85 / 24.85 ->
+    30.91 / 24.90, rows losing to the SGBM key 14 / 7 either way (ostrich_grille K = 5 +1.34 / +1.00,
+    flowers_fence K = 2 +0.51 / +0.33, doll_plaster K = 5 +0.43 / +0.52, beanie_grille K = 2 +0.37 / +0.18;
+    worst doll_plaster K = 2 -0.26 / -0.30, and curls_wire_midd's card at d = 3, already losing, -1.2 / -1.5
+    more). ostrich_grille K = 5's bad pixels 18.5 -> 15.3 %. Both steps at 0.45 (``cells_share``) lost rows
+    instead: 19 / 7 (doll_plaster K = 2 -4.8 frame, panel_hair_books K = 2 -1.3), from step 14. Held-out
+    rows (60, scored once after the choice): 27.58 / 21.71 -> 27.72 / 21.77, none losing (board_fence_toy
+    K = 5 +0.92 / +0.33, K = 2 +0.54 / +0.22; worst railing_subject_rocks K = 5 -0.04 / -0.02). Middlebury,
+    depth only: from all views 9.20 % either way (Bowling1 11.88 -> 11.92, Wood2 3.91 -> 3.87), from the
+    classic pair 14.33 % either way (Reindeer 12.86 -> 12.39, Wood1 8.72 -> 9.10)."""
     cells_farther: float = 0.3
     """Step 15's share of a region's same-coloured pixels across its bars that must lie farther for it to move
     (the first cells beside a wall already right see one or two such neighbours of four)."""
@@ -712,10 +730,11 @@ class DepthConfig:
                                  "colour_jump >= 0")
         if (self.cells_rival <= 0 or self.cells_jump < 0 or not 0 <= self.cells_share <= 1 or self.cells_like <= 0
                 or self.cells_ring < 2 or self.cells_spread < 0 or not 0 <= self.cells_farther <= 1
-                or self.colour_again < 0 or self.colour_again_near < 0):
+                or self.colour_again < 0 or self.colour_again_near < 0
+                or not (self.spread_share is None or 0 <= self.spread_share <= 1)):
             raise VfxStereoError("depth settings: cells_rival > 0, cells_jump >= 0, 0 <= cells_share <= 1, "
                                  "cells_like > 0, cells_ring >= 2, cells_spread >= 0, 0 <= cells_farther <= 1, "
-                                 "colour_again, colour_again_near >= 0")
+                                 "colour_again, colour_again_near >= 0, 0 <= spread_share <= 1")
         if self.own_rows < 1 or not 0 <= self.own_cover <= 1 or not 0 <= self.own_solid <= 1 or self.own_margin < 0:
             raise VfxStereoError("depth settings: own_rows >= 1, 0 <= own_cover <= 1, 0 <= own_solid <= 1, "
                                  "own_margin >= 0")
