@@ -1,5 +1,7 @@
 """The robust depth stage: exact answers on synthetic plates, Middlebury crops, and its helpers."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -970,6 +972,17 @@ def test_plain_join_settings_are_checked():
                 {"join_grow": -0.5}, {"join_unseen": -0.01}):
         with pytest.raises(VfxStereoError):
             depth.DepthConfig(**bad)
+
+
+def test_the_rims_step_runs_on_its_own_over_the_whole_plate():
+    """Step 16 with every other colour step off and ``colour_again_near`` 0 (the whole plate) needs the plate's
+    colours too: it ran on ``None`` and failed inside its kernel until session 37's review."""
+    views, warper, ref, gt, _ = _bars_over_texture(K=2)
+    cfg = depth.DepthConfig(colour_reopen=False, join=False, own=False, cells=False, colour_again_near=0)
+    res = depth.robust_depth(views, warper, ref, config=cfg)
+    assert "colour again" in res.timings and res.disparity.shape == gt.shape
+    off = depth.robust_depth(views, warper, ref, config=dataclasses.replace(cfg, colour_again=0.0))
+    assert "colour again" not in off.timings and np.all(res.disparity <= off.disparity)  # it only sends back
 
 
 def test_views_confirm_keeps_a_move_the_views_see_and_puts_back_one_they_contradict():

@@ -81,15 +81,15 @@ from vfxstereo.progress import Progress, report
 
 
 def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConfig, progress) -> DepthResult:
-    """``res`` after the whole-plate steps 9-14 (reopen, colour_reopen, thin, join, own, cells)."""
+    """``res`` after the whole-plate steps 9-16 (reopen, colour_reopen, thin, join, own, cells, spread, rims)."""
     from vfxstereo.layers import plane_index
     from vfxstereo.sweep import matching_values
 
     changed = False
-    # the plate in sRGB, for steps 10, 12 and 13's colour tests: converted once
+    # the plate in sRGB, for the colour tests of steps 10 and 12-16: converted once
     cells = res.cells is not None
     colour = (matching_values(views[reference], "srgb", 1.0)
-              if config.colour_reopen or config.join or config.own or cells else None)
+              if config.colour_reopen or config.join or config.own or cells or config.colour_again > 0 else None)
     if config.reopen and config.reopen_passes > 0 and views.shape[0] - 1 >= config.reopen_views:
         t0 = time.perf_counter()
         res.disparity = reopen_gaps(views, warper, reference, res.disparity, config=config, progress=progress)[0]
@@ -103,8 +103,8 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
                                          jump=config.colour_jump)[0]
         res.timings["colour reopen"] = time.perf_counter() - t0
         changed = True
-    checks = config.join_check and (config.join or config.own or cells)
-    kept: dict = {}  # step 11's view errors of the map, for steps 12 and 13's checks while the map is unchanged
+    checks = config.join_check and (config.join or config.own or cells or config.colour_again > 0)
+    kept: dict = {}  # step 11's view errors of the map, for the checks of steps 12-16 while the map is unchanged
     if config.thin:
         t0 = time.perf_counter()
         thin, moved = recover_thin(views, warper, reference, res.disparity, config=config,
@@ -115,7 +115,7 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
             kept.clear()
         res.timings["thin"] = time.perf_counter() - t0
 
-    def checked(name, t0, proposed, moved):  # steps 12 and 13: moves the views do not contradict
+    def checked(name, t0, proposed, moved):  # steps 12-16: moves the views do not contradict
         nonlocal changed
         if moved.any() and config.join_check:
             proposed = views_confirm(views, warper, reference, res.disparity, proposed, jitter=config.reopen_jitter,
@@ -151,9 +151,9 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
         res.cells = None  # done with: not kept in the result
     if cells and config.cells_spread > 0:
         t0 = time.perf_counter()
-        checked("spread", t0, *spread_cells(res.disparity, colour, flat, jump=config.cells_jump,
-                                            share=config.cells_share if config.spread_share is None
-                                            else config.spread_share, like=config.cells_like, ring=config.cells_ring,
+        share = config.cells_share if config.spread_share is None else config.spread_share
+        checked("spread", t0, *spread_cells(res.disparity, colour, flat, jump=config.cells_jump, share=share,
+                                            like=config.cells_like, ring=config.cells_ring,
                                             farther=config.cells_farther, rounds=config.cells_spread,
                                             join_like=config.join_like))
     sent_back = res.disparity != before_cells
