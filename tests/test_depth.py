@@ -339,6 +339,120 @@ def test_rematch_consistency_agrees_on_an_exact_pair():
     assert not re.reliable[14:26, 15:19].any()
 
 
+def _board_pair_maps():
+    """The plain board over a textured wall as a stereo pair, with the right view's exact map and that map with
+    the board sent back to the wall (what the flat-surface bias does to a plain board the view cannot place)."""
+    scene = _plain_board_over_textured_wall(K=2)
+    views = scene.views()
+    gt = scene.gt_disparity(0.5).astype(np.float32)
+    warper = Warper(Camera.from_positions(scene.positions, scene.reference), np.arange(0.0, 13.25, 0.5), gt.shape)
+    k = 1 - scene.reference
+    offset = float(scene.positions[k] - scene.positions[scene.reference])
+    board = gt > 6
+    assert not board[:, :12].any() and not board[:, -12:].any()
+    seen_board = np.roll(board, -int(round(11.0 * offset)), axis=1)  # x -> x - d * offset in view k
+    exact = np.where(seen_board, 11.0, 2.0).astype(np.float32)
+    sent_back = np.full_like(gt, 2.0)
+    return views, warper, scene.reference, k, offset, gt, board, exact, sent_back
+
+
+def test_the_pair_check_keeps_a_plain_board_where_the_other_view_sees_its_edge():
+    """The other view's map sent the plain board back to the wall, so the check rejects the reference's (right)
+    board. Along the board's right edge that view sees the wall's depth with the wall's texture where the board
+    is: the other map is the wrong one, and the whole board's region passes with those pixels."""
+    views, warper, ref, k, offset, gt, board, exact, sent_back = _board_pair_maps()
+    plain = depth.consistent(views, warper, ref, gt, k, sent_back, offset)
+    assert np.mean(plain[board]) < 0.05  # the case: the check alone throws the board away
+    kept = depth.consistent(views, warper, ref, gt, k, sent_back, offset, contradict=0.05)
+    assert kept[board].mean() > 0.995  # (a pixel of the board's noise at its edge may fail the colour test)
+    np.testing.assert_array_equal(kept[~board], plain[~board])  # the wall's verdicts do not change
+    # the exact other map agrees with the board either way
+    assert depth.consistent(views, warper, ref, gt, k, exact, offset)[board].all()
+
+
+def test_the_pair_check_still_rejects_a_board_fattened_over_a_strip_the_other_view_cannot_see():
+    """The reference's board grown by 3 px over the textured wall, the other view's map exact: where the check
+    rejects the grown pixels, the wall's depth lands in the other view behind the board or on the same wall
+    texture, so nothing contradicts it, and the verdicts are the same with the contradiction test on."""
+    views, warper, ref, k, offset, gt, board, exact, _ = _board_pair_maps()
+    fat = _fattened(gt, 3)
+    grown = (fat > 6) & ~board
+    plain = depth.consistent(views, warper, ref, fat, k, exact, offset)
+    assert np.mean(~plain[grown]) > 0.5  # the left and top and bottom strips are rejected
+    np.testing.assert_array_equal(depth.consistent(views, warper, ref, fat, k, exact, offset, contradict=0.05),
+                                  plain)
+
+
+def test_the_pair_check_keeps_a_wire_the_other_view_missed_but_not_the_halo_the_map_grew_around_it():
+    """A thin light wire (d = 11) over the textured wall, which the reference's map draws 2 px too wide on each
+    side and the other view's map misses. The other view sees the wall's depth with the wall's texture where the
+    wire is: the wire's pixels pass. Its halo lies in the same region of one plane, but it has the wall's
+    colours: it stays rejected."""
+    views, warper, ref, k, offset, gt, board, _, sent_back = _board_pair_maps()
+    views = views.copy()
+    h, w = gt.shape
+    wire = np.zeros((h, w), bool)
+    wire[:, 70:72] = True
+    seen_wire = np.roll(wire, -int(round(11.0 * offset)), axis=1)
+    views[ref][wire] = 0.8
+    views[k][seen_wire] = 0.8
+    d = np.where(wire, 11.0, 2.0).astype(np.float32)
+    halo = (np.abs(np.arange(w) - 70.5) <= 3.5)[None, :] & ~wire
+    d[np.broadcast_to(halo, d.shape)] = 11.0
+    halo = np.broadcast_to(halo, d.shape) & ~board
+    core = wire & ~board
+    plain = depth.consistent(views, warper, ref, d, k, sent_back, offset)
+    assert not plain[core].any() and not plain[halo].any()  # the check alone rejects wire and halo
+    kept = depth.consistent(views, warper, ref, d, k, sent_back, offset, contradict=0.05)
+    assert kept[core].mean() > 0.95
+    assert kept[halo].mean() < 0.05
+
+
+def test_the_pair_check_does_not_trust_what_the_other_view_shows_beyond_the_reference_frame():
+    """A near object just outside the reference's right edge shows in the other (right) view's right edge strip,
+    where that view's map (no view to check it) has the wall. The reference's map put the plain wall beside the
+    frame edge at the object's depth. The other view's colour there is the object's, not the wall's, but that is
+    no evidence against the wall: the rejected pixels stay rejected."""
+    h, w = 20, 60
+    warper = _pair_warper((h, w), np.arange(0.0, 16.5, 0.5))
+    wall = np.array([0.30, 0.34, 0.40], np.float32)
+    views = np.broadcast_to(wall, (2, h, w, 3)).copy()
+    views[1][:, w - 10:] = (0.9, 0.3, 0.5)  # the object at d = 13, beyond the reference's frame
+    d = np.full((h, w), 2.0, np.float32)
+    d[:, w - 12:] = 13.0
+    other = np.full((h, w), 2.0, np.float32)
+    plain = depth.consistent(views, warper, 0, d, 1, other, 1.0)
+    assert not plain[:, w - 12:].any()
+    np.testing.assert_array_equal(depth.consistent(views, warper, 0, d, 1, other, 1.0, contradict=0.05), plain)
+
+
+def test_a_stereo_pair_keeps_part_of_a_plain_board_both_views_biased_back():
+    """The whole depth stage at K = 2: both views' maps send the plain board back (the flat-surface bias); until
+    session 38 the pair check then threw away the part the reference's map had right. Measured: the board's
+    pixels too far 99.9 % -> 55.9 %, no wall pixel too near either way."""
+    scene = _plain_board_over_textured_wall(K=2)
+    views = scene.views()
+    gt = scene.gt_disparity(0.5)
+    warper = Warper(Camera.from_positions(scene.positions, scene.reference), np.arange(0.0, 13.25, 0.5), gt.shape)
+    board = gt > 6
+    far, wall_near = {}, {}
+    assert depth.DepthConfig().consistency_contradict > 0  # on by default
+    for name, config in (("off", depth.DepthConfig(consistency_contradict=0.0)), ("on", depth.DepthConfig())):
+        d = depth.robust_depth(views, warper, scene.reference, config=config).disparity
+        far[name] = float(np.mean(d[board] < gt[board] - 1))
+        wall_near[name] = float(np.mean(d[~board] > gt[~board] + 1))
+    assert far["off"] > 0.95 and far["on"] < 0.7, far
+    assert wall_near["on"] <= wall_near["off"] + 0.002, wall_near
+
+
+def test_the_pair_check_settings_are_checked():
+    from vfxstereo.errors import VfxStereoError
+
+    for bad in ({"consistency_contradict": -0.1}, {"consistency_region": 0}):
+        with pytest.raises(VfxStereoError):
+            depth.DepthConfig(**bad)
+
+
 def test_the_one_pass_mean_is_the_general_combination(rng):
     total = {0: rng.normal(size=(6, 7, 5)).astype(np.float32)}
     count = {0: rng.integers(0, 4, (6, 7, 5)).astype(np.uint8)}

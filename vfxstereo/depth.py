@@ -29,7 +29,10 @@ This stage gives the layered model a dependable front surface instead, from clas
    ``consistency_view`` steps away is read off the aggregated volume by a diagonal search, Hirschmueller
    2008, and compared with the reference's by re-projection) are filled from the farther of their reliable
    neighbours (:func:`fill_unreliable`), never by inventing a nearer surface. (The check's second match is
-   made from the other view as a reference of its own, ``consistency_method="rematch"``, by default.)
+   made from the other view as a reference of its own, ``consistency_method="rematch"``, by default.) Where
+   the other view's map is the farther one and that view sees its depth with the wrong colour, that map is
+   the wrong one (``consistency_contradict``, :func:`consistent`): a plain board both views' flat-surface
+   biases sent back keeps the part the reference's map placed from its edge.
    Then a surface that reaches the strip along a frame edge that no other view sees continues across it
    (``frame_edges``, :func:`extend_to_frame_edges`): no view can say anything there.
 7. A 3x3 median.
@@ -129,6 +132,13 @@ class DepthConfig:
     the mean bad-pixel rate from 17.8 to 16.4 %; with all views of six sets it helps three and hurts three."""
     consistency_view: int | None = None
     """Steps from the reference to the view of the check (default: the farthest view on the side with more)."""
+    consistency_contradict: float = 0.05
+    """Step 6 keeps pixels the other view's map puts farther where that view sees the farther depth with a colour
+    error above this more than twice their own depth's (sRGB, mean over channels; 0: never): that map is the
+    wrong one there (:func:`consistent`)."""
+    consistency_region: int = 10
+    """... and the pixels of their colour rejected for the same reason in their connected region of one plane,
+    where at least this many of its pixels are contradicted so (:func:`consistent`)."""
     consistency_method: str = "rematch"
     """How step 6 gets the other view's disparity: "diagonal" reads it off the reference's aggregated volume
     (cheap, but it inherits the reference's fattening: a half-occluded strip that took the near surface's
@@ -715,6 +725,8 @@ class DepthConfig:
                                  "reopen_views >= 1, aggregation 'box' or 'guided', guided_radius >= 1, "
                                  "guided_eps > 0, rival_jump >= 0, rival_scale > 0, guard_jump >= 0, "
                                  "guard_radius >= 1, 0 < guard_share <= 1, guard_unlike, guard_carry >= 0")
+        if self.consistency_contradict < 0 or self.consistency_region < 1:
+            raise VfxStereoError("depth settings: consistency_contradict >= 0, consistency_region >= 1")
         if not (0 <= self.P1 <= self.P2):
             raise VfxStereoError(f"SGM needs 0 <= P1 <= P2, got P1={self.P1}, P2={self.P2}")
         if not (self.strip_memory > 0 and self.strip_margin >= 0):
@@ -1196,11 +1208,83 @@ def _rematch_consistency(views, warper, reference: int, disparity: np.ndarray, o
     other = Warper(Camera.from_positions(cam.positions, k), warper.disparities, warper.shape)
     sub = replace(config, consistency=False, edge_refine=False)
     d_o = _robust_depth(views, other, k, sub, None, False).disparity
+    return consistent(views, warper, reference, disparity, k, d_o, offset, contradict=config.consistency_contradict,
+                      region=config.consistency_region)
+
+
+def consistent(views, warper, reference: int, disparity: np.ndarray, k: int, other: np.ndarray, offset: float, *,
+               contradict: float = 0.0, region: int = 10, like: float = 0.04) -> np.ndarray:
+    """The pair check: True where the reference's disparity agrees with view ``k``'s own map.
+
+    ``other`` is view ``k``'s map, ``offset`` view steps along x; a pixel agrees within one pixel of view ``k``,
+    or where it lands outside view ``k``.
+
+    ``contradict`` > 0: where ``other`` is *farther*, two things can be wrong. Either the reference's pixel is a
+    near surface fattened over a strip view ``k`` cannot see (in view ``k`` the farther depth lands behind the
+    near surface: nothing there contradicts it), or ``other`` is wrong (a plain surface that view's map sent
+    back, with nothing to tell it where its own edges are). In the second case view ``k`` sees the farther depth
+    (its map has that depth there) with a colour error above ``contradict`` more than twice that of the pixel's
+    own depth (sRGB, mean over channels, the least within a pixel, after the views' gains). Such pixels pass,
+    and with them the pixels the check rejects for the same reason in their connected region of one plane,
+    where it has at least ``region`` of them, and of those, the ones within ``like`` (every channel) of their
+    colour: the evidence of a plain board lies along one of its edges, while a thin wire's halo has the colour
+    of what lies behind it. Not where view ``k``'s pixel is within the largest disparity of its frame edge on
+    the side the reference cannot see: a near surface beyond the reference's frame may show there.
+    """
     h, w = disparity.shape
-    u = np.rint(np.arange(w)[None, :] - disparity * offset).astype(np.int64)
+    rows = np.arange(h)[:, None]
+    xs = np.arange(w)[None, :]
+    u = np.rint(xs - disparity * offset).astype(np.int64)
     inside = (u >= 0) & (u < w)
-    back = d_o[np.arange(h)[:, None], np.clip(u, 0, w - 1)]
-    return (np.abs(back - disparity) * abs(offset) <= 1.0) | ~inside
+    back = other[rows, np.clip(u, 0, w - 1)]
+    agree = (np.abs(back - disparity) * abs(offset) <= 1.0) | ~inside
+    farther = ~agree & (back < disparity)
+    if contradict <= 0 or not farther.any():
+        return agree
+    from scipy import ndimage
+
+    from vfxstereo.layers import view_gains
+    from vfxstereo.sweep import matching_values
+
+    u2 = np.rint(xs - back * offset).astype(np.int64)
+    # where view k sees the farther depth, and no nearer surface beyond the reference's frame can show there
+    reach = float(np.max(warper.disparities)) * offset
+    inside2 = (u2 >= 0) & (u2 < w) & (u2 + reach >= 0) & (u2 + reach < w)
+    u2 = np.clip(u2, 0, w - 1)
+    seen = np.abs(other[rows, u2] - back) * abs(offset) <= 1.0  # view k's map has the farther depth there
+    gain = view_gains(views, warper, reference, disparity)[k]  # the cameras' exposures differ
+    ref = matching_values(views[reference], "srgb", 1.0)
+    view = matching_values(np.asarray(views[k], np.float32) * gain, "srgb", 1.0)
+
+    def error(at):  # the least colour error within a pixel of ``at`` in view k
+        return np.min([np.abs(ref - view[rows, np.clip(at + j, 0, w - 1)]).mean(axis=-1) for j in (-1, 0, 1)],
+                      axis=0)
+
+    contradicted = farther & inside2 & seen & (error(u2) > contradict + 2.0 * error(np.clip(u, 0, w - 1)))
+    if not contradicted.any():
+        return agree
+    step = float(np.min(np.diff(warper.disparities))) if warper.D > 1 else 1.0
+    level = np.rint(disparity / step).astype(np.int64)
+    labels = np.zeros((h, w), np.int64)
+    n = 0
+    for lv in np.unique(level[farther]):
+        lab, m = ndimage.label(farther & (level == lv), structure=np.ones((3, 3), bool))
+        labels[lab > 0] = lab[lab > 0] + n
+        n += m
+    keep = np.bincount(labels[contradicted], minlength=n + 1) >= region
+    keep[0] = False
+    if not keep.any():
+        return agree
+    # of a kept region, the pixels of the contradicted pixels' colour: the board, not a halo a thin near
+    # structure (a wire, whose own pixels the other view contradicts too) grew over another surface
+    smooth = ndimage.uniform_filter(ref, (3, 3, 1), mode="nearest")  # the plate's noise aside
+    colour = np.zeros((n + 1, 3), np.float32)
+    for c in range(3):
+        sums = np.bincount(labels[contradicted], weights=smooth[..., c][contradicted], minlength=n + 1)
+        colour[:, c] = sums / np.maximum(np.bincount(labels[contradicted], minlength=n + 1), 1)
+    alike = ((np.abs(smooth - colour[labels]).max(axis=-1) < like)
+             | (np.abs(ref - colour[labels]).max(axis=-1) < like))  # (or itself: its own edge's pixels)
+    return agree | (keep[labels] & (alike | contradicted))
 
 
 DEPTH_BYTES_PER_CELL = 16
