@@ -135,7 +135,23 @@ class DepthConfig:
     consistency_contradict: float = 0.05
     """Step 6 keeps pixels the other view's map puts farther where that view sees the farther depth with a colour
     error above this more than twice their own depth's (sRGB, mean over channels; 0: never): that map is the
-    wrong one there (:func:`consistent`)."""
+    wrong one there (:func:`consistent`).
+
+    Found on sign_plant_aloe K = 2: both views' maps send its plain sign back (the flat-surface bias), the
+    reference's keeps the part its right edge places, and the check threw that away, since the other map had
+    the wall there. Measured in session 38 against 0 (z-key benchmark, frame / band dB; rows losing to the SGBM
+    key, frame / band; the depth stage's maps at K = 5 are unchanged, the check runs for a stereo pair):
+
+    * all 338 rows: 30.35 / 24.34 -> 30.39 / 24.37, losing 14 / 7 -> 10 / 7 (sign_plant_aloe K = 2's four
+      frame rows turn to winning, +1.26 / +0.67 over its rows; sphere_plant K = 2 +1.33 / +1.11, ostrich_grille
+      K = 2 +0.13 / +0.15; worst row leaves_wire_bowling K = 2 -0.11 / -0.15); the held-out rows of then
+      (60) 27.72 / 21.77 -> 27.76 / 21.81, none losing;
+    * the first version, without the frame-edge guard and the colour test, lost on two of those held-out scenes
+      (duck_monster_baby K = 2 -1.26 / -1.02: the other view's edge strip showed a subject beyond the
+      reference's frame; leaves_wire_bowling K = 2 -0.18 / -0.16: a wire's halo passed with the wire), which
+      then retired; two new held-out scenes, scored once with and without: within 0.03 on every row;
+    * Middlebury, depth only: from all views 9.20 % either way; from the classic pair 14.33 % either way
+      (tsukuba 5.36 -> 5.30, Aloe 8.94 -> 9.02, no other set moves by more than 0.01)."""
     consistency_region: int = 10
     """... and the pixels of their colour rejected for the same reason in their connected region of one plane,
     where at least this many of its pixels are contradicted so (:func:`consistent`)."""
