@@ -1287,7 +1287,8 @@ def consistent(views, warper, reference: int, disparity: np.ndarray, k: int, oth
         lab, m = ndimage.label(farther & (level == lv), structure=np.ones((3, 3), bool))
         labels[lab > 0] = lab[lab > 0] + n
         n += m
-    keep = np.bincount(labels[contradicted], minlength=n + 1) >= region
+    hits = np.bincount(labels[contradicted], minlength=n + 1)
+    keep = hits >= region
     keep[0] = False
     if not keep.any():
         return agree
@@ -1297,7 +1298,7 @@ def consistent(views, warper, reference: int, disparity: np.ndarray, k: int, oth
     colour = np.zeros((n + 1, 3), np.float32)
     for c in range(3):
         sums = np.bincount(labels[contradicted], weights=smooth[..., c][contradicted], minlength=n + 1)
-        colour[:, c] = sums / np.maximum(np.bincount(labels[contradicted], minlength=n + 1), 1)
+        colour[:, c] = sums / np.maximum(hits, 1)
     alike = ((np.abs(smooth - colour[labels]).max(axis=-1) < like)
              | (np.abs(ref - colour[labels]).max(axis=-1) < like))  # (or itself: its own edge's pixels)
     return agree | (keep[labels] & (alike | contradicted))
