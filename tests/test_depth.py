@@ -611,11 +611,55 @@ def test_the_guided_window_is_the_default_the_box_runs_when_asked_and_settings_a
             depth.DepthConfig(**bad)
 
 
+def test_the_pair_check_of_step_9_keeps_moves_the_other_views_map_confirms_and_puts_back_the_rest():
+    """Stereo pair, board at d = 12 with gaps: step 9's moves with the pair's one view, checked against the other
+    view's own map. The gaps (the other view sees the background through another gap) and a fattened rim left of
+    the board (background in both views) stay moved; a stroke along the board's right edge moved back by a chance
+    match lands on the board in the other view, whose map says 12 there, and goes back."""
+    views, warper, ref, gt, gaps, board = _gapped_scene(plain_background=False, K=2)
+    k = 1 - ref
+    h, w = gt.shape
+    xs = np.arange(w)
+    src = np.clip(xs + 12 * (k - ref), 0, w - 1)  # as the scene renders view k
+    seen = (xs + 12 * (k - ref) >= 0) & (xs + 12 * (k - ref) < w)
+    pair = np.where(board[:, src] & seen[None], 12.0, 0.0).astype(np.float32)  # view k's own (true) map
+    before = np.where(board | gaps, 12.0, 0.0).astype(np.float32)
+    before[8:40, 27:30] = 12.0  # the board fattened over the background on its left
+    after = before.copy()
+    after[gaps] = 0.0
+    after[8:40, 27:30] = 0.0
+    after[32:40, 63:66] = 0.0  # the board's own right edge, sent back by a chance match
+    out = depth_plate.reopen_pair_checked(warper, before, after, k, pair)
+    assert (out[gaps] == 0.0).all() and (out[8:40, 27:30] == 0.0).all()
+    assert (out[32:40, 63:66] == 12.0).all()
+    same = after == before
+    np.testing.assert_array_equal(out[same], before[same])  # nothing else changes
+    np.testing.assert_array_equal(depth_plate.reopen_pair_checked(warper, before, before, k, pair), before)
+
+
+def test_step_9_runs_on_a_stereo_pair_with_its_check_when_asked():
+    from dataclasses import replace
+
+    views, warper, ref, gt, gaps, board = _gapped_scene(plain_background=False, K=2)
+    assert depth.DepthConfig().reopen_pair == 0
+    on = depth.robust_depth(views, warper, ref, config=replace(depth.DepthConfig(), reopen_pair=0.2))
+    off = depth.robust_depth(views, warper, ref)
+    assert "reopen" in on.timings and "reopen" not in off.timings
+    assert np.all(on.disparity <= off.disparity + 1e-6)  # only back
+    assert on.pair is None and off.pair is None  # the other view's map is freed after step 9
+    assert np.mean(np.abs(on.disparity - gt) <= 1) > np.mean(np.abs(off.disparity - gt) <= 1)  # 95.5 against 95.0 %
+    strips = replace(depth.DepthConfig(), reopen_pair=0.2, strip_memory=0.0005, strip_margin=8)
+    assert len(depth.strip_plan(warper, strips)) > 1
+    parts = depth.robust_depth(views, warper, ref, config=strips)  # the other view's map stitched from the strips
+    assert "reopen" in parts.timings and parts.pair is None
+    assert np.mean(np.abs(parts.disparity - gt) <= 1) > np.mean(np.abs(off.disparity - gt) <= 1)  # 95.4 %
+
+
 def test_reopen_settings_are_checked():
     from vfxstereo.errors import VfxStereoError
 
     for bad in ({"reopen_passes": -1}, {"reopen_radii": (0,)}, {"reopen_ratio": 0.0}, {"reopen_floor": -1.0},
-                {"reopen_views": 0}):
+                {"reopen_views": 0}, {"reopen_pair": -0.1}, {"reopen_pair": 1.5}):
         with pytest.raises(VfxStereoError):
             depth.DepthConfig(**bad)
 

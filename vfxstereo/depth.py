@@ -318,7 +318,8 @@ class DepthConfig:
     reopen: bool = False
     """Step 9: reopen the gaps the window filled (:func:`reopen_gaps`). A pixel moves back to a farther surface
     around it where views see that surface with the plate's colour there and neither its own depth nor a
-    nearer surface around explains it as well. Off by default, on in the ``soft`` preset: on the z-key
+    nearer surface around explains it as well. (On a stereo pair, ``reopen_pair`` runs it in a checked form.)
+    Off by default, on in the ``soft`` preset: on the z-key
     benchmark it gains on foliage over textured backgrounds at K = 5 and is neutral elsewhere, and at HD it
     costs about as much as the rest of the depth stage. Measured in session 19 (frame / band dB; each version
     checked on held-out scenes scored last, two new ones each time):
@@ -365,6 +366,29 @@ class DepthConfig:
     their best view): a pixel whose own depth fails may belong to a nearer surface the map missed -- a thin
     grille's bar given the subject's depth behind it -- and sending it farther still shows the element over
     it (shelf_grille, K = 5: 207 of 223 moved pixels wrong without it, none of 15 with it)."""
+    reopen_pair: float = 0.0
+    """Step 9 on a stereo pair, with the pair's one view and this ``reopen_ratio`` (0: off), where step 6's
+    rematch made the other view's own map: of the groups of moved pixels (8-connected) only those stay where, at
+    one pixel or more, the other view's own map agrees with the new depth (within one of its pixels, within one
+    pixel of where the pixel lands there): both views' maps then say the pixel is the farther surface
+    (:func:`vfxstereo.depth_plate.reopen_pair_checked`). One view matches thin structures and edges by chance (see
+    ``reopen_views``); there the other view's map is fattened as the reference's is, and still has the near
+    surface.
+
+    Off by default: on the z-key tuning scenes at K = 2 it gains where leaves or hair lie over a textured
+    background and costs two near-exact rows. Measured in session 39 (frame / band dB):
+
+    * on the final maps of 7 tuning scenes at K = 2, the moves of step 9 with one view and ratio 0.2, right /
+      wrong by the truth (more than 1 px off before / after): unchecked 1753 / 445 (shelf_grille 13 / 270: the
+      teddy's and the card's edges), checked per pixel 271 / 9, per group (kept here) 703 / 40;
+    * z-key tuning scenes, K = 2, 151 rows, ratio 0.2: 29.42 / 23.95 -> 29.48 / 23.92; fence_dof +2.26 / +1.70,
+      tree_cloth +0.79 / +0.67, trolls_art +0.37 / +0.41, shelf_grille +0.04 / +0.04 (unchecked, session 38:
+      -6.6 / -7.5); but two_soft_pots' two small-card rows -5.61 on the band (35.55 dB, a tie with the SGBM key,
+      to 29.94: two pixels of the bear's edge sent back, which the other view's map also puts back), sign_plant_aloe
+      -0.08 / -0.23, sheep_duck_wall -0.07 / -0.17; rows losing to the SGBM key on the band 2 -> 4;
+    * a quarter of a group's pixels confirmed instead of one: 29.43 / 23.89 (fence_dof +0.25, tree_cloth 0: its
+      gains need the groups only a few pixels confirm; two_soft_pots as before).
+    """
     reopen_views: int = 2
     """Views that must see the candidate with the plate's colour (its error: the ``reopen_views``-th least of
     the views'); a rig with fewer other views skips the step. With 1, a stereo pair's one other view decides
@@ -731,6 +755,7 @@ class DepthConfig:
                 or self.flat_window < 1 or self.reopen_passes < 0 or any(r < 1 for r in self.reopen_radii)
                 or not 0 < self.reopen_ratio <= 1 or self.reopen_floor < 0 or self.reopen_relative < 0
                 or self.reopen_jitter < 0 or self.reopen_jump < 0 or self.reopen_views < 1
+                or not 0 <= self.reopen_pair <= 1
                 or self.reopen_settle < 0 or self.aggregation not in ("box", "guided")
                 or self.guided_radius < 1 or self.guided_eps <= 0 or self.rival_jump < 0 or self.rival_scale <= 0
                 or self.guard_jump < 0 or self.guard_radius < 1 or not 0 < self.guard_share <= 1
@@ -738,7 +763,8 @@ class DepthConfig:
             raise VfxStereoError("depth settings: box >= 1, paths 4 or 8, median >= 0, visibility_passes >= 0, "
                                  "flat_window >= 1, reopen_passes >= 0, reopen_radii >= 1, 0 < reopen_ratio <= 1, "
                                  "reopen_floor, reopen_relative, reopen_jitter, reopen_jump, reopen_settle >= 0, "
-                                 "reopen_views >= 1, aggregation 'box' or 'guided', guided_radius >= 1, "
+                                 "reopen_views >= 1, 0 <= reopen_pair <= 1, aggregation 'box' or 'guided', "
+                                 "guided_radius >= 1, "
                                  "guided_eps > 0, rival_jump >= 0, rival_scale > 0, guard_jump >= 0, "
                                  "guard_radius >= 1, 0 < guard_share <= 1, guard_unlike, guard_carry >= 0")
         if self.consistency_contradict < 0 or self.consistency_region < 1:
@@ -790,6 +816,10 @@ class DepthResult:
     timings: dict = field(default_factory=dict)
     cells: np.ndarray | None = None
     """(H, W) float32 the rival-gated map of step 14 (``DepthConfig.cells``), else None."""
+    pair: np.ndarray | None = None
+    """(H, W) float32 the map of view ``pair_view`` as a reference of its own (step 6's rematch), for step 9 on a
+    stereo pair (``DepthConfig.reopen_pair``); None without the rematch, and once steps 9-16 are done."""
+    pair_view: int | None = None
 
 
 def box_filter(cost: np.ndarray, size: int, *, out: np.ndarray | None = None) -> np.ndarray:
@@ -1208,8 +1238,10 @@ def _consistency(S: np.ndarray, win: np.ndarray, disparities: np.ndarray, offset
 
 
 def _rematch_consistency(views, warper, reference: int, disparity: np.ndarray, offset: float,
-                         config: DepthConfig) -> np.ndarray:
-    """True where the reference's disparity agrees with the other view's own, within one pixel of that view.
+                         config: DepthConfig) -> tuple[np.ndarray, int, np.ndarray]:
+    """``(agree, k, d_k)``: where the reference's disparity agrees with the other view's own; that view, its map.
+
+    ``agree`` is True within one pixel of view ``k``; ``d_k`` is view ``k``'s own map.
 
     The view ``offset`` steps along x is solved as a reference of its own (the left-right check of
     Hirschmueller 2008, with a real second match instead of the diagonal search of :func:`_consistency`).
@@ -1225,7 +1257,7 @@ def _rematch_consistency(views, warper, reference: int, disparity: np.ndarray, o
     sub = replace(config, consistency=False, edge_refine=False)
     d_o = _robust_depth(views, other, k, sub, None, False).disparity
     return consistent(views, warper, reference, disparity, k, d_o, offset, contradict=config.consistency_contradict,
-                      region=config.consistency_region)
+                      region=config.consistency_region), k, d_o
 
 
 def consistent(views, warper, reference: int, disparity: np.ndarray, k: int, other: np.ndarray, offset: float, *,
@@ -1389,6 +1421,7 @@ def robust_depth(views: np.ndarray, warper, reference: int, *, config: DepthConf
     disparity = np.empty((h, w), np.float32)
     reliable = np.empty((h, w), bool)
     cells = None
+    pair, pair_view = None, None
     timings: dict[str, float] = {}
     for n, (y0, y1, p0, p1) in enumerate(plan):
         part = _robust_depth(views[:, p0:p1], Warper(warper.camera, warper.disparities, (p1 - p0, w)),
@@ -1399,12 +1432,16 @@ def robust_depth(views: np.ndarray, warper, reference: int, *, config: DepthConf
             if cells is None:
                 cells = np.empty((h, w), np.float32)
             cells[y0:y1] = part.cells[y0 - p0:y1 - p0]
+        if part.pair is not None:
+            if pair is None:
+                pair = np.empty((h, w), np.float32)
+            pair[y0:y1], pair_view = part.pair[y0 - p0:y1 - p0], part.pair_view
         for name, seconds in part.timings.items():
             timings[name] = timings.get(name, 0.0) + seconds
         report(progress, "depth strips", n + 1, len(plan))
     return _reopened(DepthResult(disparity=disparity, index=plane_index(disparity, warper.disparities),
-                                 reliable=reliable, timings=timings, cells=cells), views, warper, reference, config,
-                     progress)
+                                 reliable=reliable, timings=timings, cells=cells, pair=pair, pair_view=pair_view),
+                     views, warper, reference, config, progress)
 
 
 def _robust_depth(views, warper, reference, config, progress, keep_volume) -> DepthResult:
@@ -1522,6 +1559,7 @@ def _robust_depth(views, warper, reference, config, progress, keep_volume) -> De
     if config.fill_occluded and config.visibility_passes > 0:
         # no other view sees the winning cell: half-occluded in every view, so matching said nothing there
         reliable &= seen_at(count, win)
+    pair_map, pair_view = None, None  # the other view's own map (the rematch), for step 9 on a pair
     if config.consistency or (config.consistency is None and K == 2):
         off = _consistency_offset(warper, reference, config.consistency_view)
         if off is not None and config.consistency_method == "rematch":
@@ -1531,7 +1569,8 @@ def _robust_depth(views, warper, reference, config, progress, keep_volume) -> De
                 del windowed, cost
                 unbiased_S = None
                 S = None
-            reliable &= _rematch_consistency(views, warper, reference, disparity, off, config)
+            agree, pair_view, pair_map = _rematch_consistency(views, warper, reference, disparity, off, config)
+            reliable &= agree
         elif off is not None:
             reliable &= _consistency(S, win, d, off)
     if not reliable.all():
@@ -1555,7 +1594,8 @@ def _robust_depth(views, warper, reference, config, progress, keep_volume) -> De
     return DepthResult(disparity=disparity.astype(np.float32), index=index, reliable=reliable,
                        aggregated=S if keep_volume else None,
                        visible=sum(c.astype(np.uint8) for c in count.values()) if keep_volume else None,
-                       timings=timings, cells=cells_map.astype(np.float32) if cells else None)
+                       timings=timings, cells=cells_map.astype(np.float32) if cells else None,
+                       pair=pair_map if config.reopen_pair > 0 else None, pair_view=pair_view)
 
 
 def _edge_inputs(prepared, warper, reference: int, disparity: np.ndarray, config: DepthConfig, confident: bool):

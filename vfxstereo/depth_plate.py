@@ -7,7 +7,8 @@ their memory budget; :func:`_reopened` then runs these steps once on the whole p
    a pixel moves back to the farthest surface within 8-64 px where, pixel by pixel (3 x 3), two views see that
    surface with the plate's colour and neither the pixel's own depth nor a nearer surface around explains it
    as well: the gaps of leaves, a canopy or wicker that the window of steps 1-3 filled with the foreground's
-   depth.
+   depth. On a stereo pair (``reopen_pair``, off by default), with the pair's one view, keeping only the moved
+   groups that the other view's own map (step 6's second match) confirms (:func:`reopen_pair_checked`).
 10. Colour reopening (``colour_reopen``, :func:`reopen_by_colour`), on the whole plate: a pixel whose colour is
    far more common among the farther surfaces within 40 px than on its own surface takes the depth of the
    nearest farther pixel of its colour, where the pixels so moved join a farther surface already in the map:
@@ -90,9 +91,19 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
     cells = res.cells is not None
     colour = (matching_values(views[reference], "srgb", 1.0)
               if config.colour_reopen or config.join or config.own or cells or config.colour_again > 0 else None)
+    pair, res.pair = res.pair, None  # step 6's map of the pair's other view: step 9's check on a pair, then freed
     if config.reopen and config.reopen_passes > 0 and views.shape[0] - 1 >= config.reopen_views:
         t0 = time.perf_counter()
         res.disparity = reopen_gaps(views, warper, reference, res.disparity, config=config, progress=progress)[0]
+        res.timings["reopen"] = time.perf_counter() - t0
+        changed = True
+    elif config.reopen_pair > 0 and config.reopen_passes > 0 and pair is not None and res.pair_view is not None:
+        from dataclasses import replace
+
+        t0 = time.perf_counter()
+        pair_config = replace(config, reopen_views=1, reopen_ratio=config.reopen_pair)
+        after = reopen_gaps(views, warper, reference, res.disparity, config=pair_config, progress=progress)[0]
+        res.disparity = reopen_pair_checked(warper, res.disparity, after, res.pair_view, pair)
         res.timings["reopen"] = time.perf_counter() - t0
         changed = True
     if config.colour_reopen:
@@ -293,6 +304,57 @@ def reopen_gaps(views: np.ndarray, warper, reference: int, disparity: np.ndarray
             break  # the next pass would only see the few neighbours of these
     report(progress, "reopen", total, total)
     return d, moved
+
+
+def reopen_pair_checked(warper, before: np.ndarray, after: np.ndarray, k: int, pair: np.ndarray, *,
+                        share: float = 0.0, island: int = 8) -> np.ndarray:
+    """Step 9 on a stereo pair: ``after`` with the moved groups the other view's own map does not confirm put back.
+
+    A group (8-connected pixels where ``after`` differs from ``before``) stays where at least ``share`` of its
+    pixels (and at least one) land in view ``k`` (at their new disparity) within one pixel (along the row) of a
+    pixel whose own disparity in ``pair`` (view ``k``'s map as a reference of its own) is the new one, within one
+    pixel of view ``k``: both views' maps then place those pixels on the farther surface. The pair's one view
+    matches a thin structure's or an edge's pixels at a farther depth by chance, and there the other view's map,
+    fattened as the reference's is, still has the near surface. A group of fewer than ``island`` pixels must
+    also join a farther surface of the map (a pixel beside it at its depth, within a pixel): a few pixels sent
+    back inside a solid subject make depth edges that the soft edges then open the subject around.
+    """
+    from scipy import ndimage
+
+    before = np.asarray(before, np.float32)
+    after = np.asarray(after, np.float32)
+    moved = after != before
+    if not moved.any():
+        return after
+    h, w = after.shape
+    u, v = warper.project(after, k)
+    ys, xs = np.nonzero(moved)
+    new = after[ys, xs]
+    uu, vv = u[ys, xs], v[ys, xs]
+    inside = np.isfinite(uu) & np.isfinite(vv) & (vv > -0.5) & (vv < h - 0.5)
+    row = np.clip(np.rint(np.nan_to_num(vv)), 0, h - 1).astype(np.int64)
+    col = np.rint(np.nan_to_num(uu)).astype(np.int64)
+    scale = float(np.abs(warper.camera.view_offset(k)).max())
+    agree = np.zeros(len(ys), bool)
+    for du in (-1, 0, 1):
+        c = col + du
+        ok = inside & (c >= 0) & (c < w)
+        agree |= ok & (np.abs(pair[row, np.clip(c, 0, w - 1)] - new) * scale <= 1.0)
+    labels, n = ndimage.label(moved, structure=np.ones((3, 3), bool))
+    size = np.bincount(labels[ys, xs], minlength=n + 1)
+    keep = np.bincount(labels[ys, xs][agree], minlength=n + 1) >= np.maximum(share * size, 1)
+    small = size < island
+    if small[1:].any():  # a few pixels that join no farther surface: an island inside a subject
+        far = ndimage.maximum(after, labels, index=np.arange(1, n + 1))  # the group's nearest new depth
+        touching = ndimage.maximum_filter(labels, 3)
+        by, bx = np.nonzero(~moved & (touching > 0))
+        group = touching[by, bx]
+        joins = np.zeros(n + 1, bool)
+        joins[np.unique(group[before[by, bx] <= far[group - 1] + 1.0])] = True
+        keep &= ~small | joins
+    keep[0] = False
+    return np.where(keep[labels], after, before).astype(np.float32)
+
 
 def colour_offsets(radius: int, stride: int) -> np.ndarray:
     """The window of :func:`reopen_by_colour`: (dy, dx) on a ``stride`` grid within ``radius``, nearest first."""
