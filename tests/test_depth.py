@@ -615,7 +615,8 @@ def test_the_pair_check_of_step_9_keeps_moves_the_other_views_map_confirms_and_p
     """Stereo pair, board at d = 12 with gaps: step 9's moves with the pair's one view, checked against the other
     view's own map. The gaps (the other view sees the background through another gap) and a fattened rim left of
     the board (background in both views) stay moved; a stroke along the board's right edge moved back by a chance
-    match lands on the board in the other view, whose map says 12 there, and goes back."""
+    match lands on the board in the other view, whose map says 12 there, and goes back; so do two pixels inside
+    the board that the other view's map confirms, but which join no farther surface."""
     views, warper, ref, gt, gaps, board = _gapped_scene(plain_background=False, K=2)
     k = 1 - ref
     h, w = gt.shape
@@ -629,9 +630,13 @@ def test_the_pair_check_of_step_9_keeps_moves_the_other_views_map_confirms_and_p
     after[gaps] = 0.0
     after[8:40, 27:30] = 0.0
     after[32:40, 63:66] = 0.0  # the board's own right edge, sent back by a chance match
+    after[20, 40:42] = 0.0  # two pixels inside the board, which the other view's map (wrongly) confirms
+    pair[20, 38:44] = 0.0
     out = depth_plate.reopen_pair_checked(warper, before, after, k, pair)
     assert (out[gaps] == 0.0).all() and (out[8:40, 27:30] == 0.0).all()
     assert (out[32:40, 63:66] == 12.0).all()
+    assert (out[20, 40:42] == 12.0).all()  # an island: it joins no farther surface
+    assert (depth_plate.reopen_pair_checked(warper, before, after, k, pair, island=1)[20, 40:42] == 0.0).all()
     same = after == before
     np.testing.assert_array_equal(out[same], before[same])  # nothing else changes
     np.testing.assert_array_equal(depth_plate.reopen_pair_checked(warper, before, before, k, pair), before)
