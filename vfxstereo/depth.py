@@ -824,6 +824,7 @@ class DepthResult:
     """(H, W) float32 the map of view ``pair_view`` as a reference of its own (step 6's rematch), for step 9 on a
     stereo pair (``DepthConfig.reopen_pair``); None without the rematch, and once steps 9-16 are done."""
     pair_view: int | None = None
+    """The view ``pair`` was solved for (the consistency check's), or None without the rematch."""
 
 
 def box_filter(cost: np.ndarray, size: int, *, out: np.ndarray | None = None) -> np.ndarray:
