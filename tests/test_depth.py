@@ -1416,3 +1416,78 @@ def test_grille_cells_are_on_by_default_and_their_settings_are_checked():
                 {"colour_again_near": -1}, {"spread_share": 1.5}, {"spread_share": -0.1}):
         with pytest.raises(VfxStereoError):
             depth.DepthConfig(**bad)
+
+
+def _split_board(rng, *, slope=0.0, near_cols=30, subject=False):
+    """(disparity, colour, board, back): a plain board (rows 10-49, columns 20-99) at d = 12 + slope * x in front of a
+    textured wall at d = 2. The map has the board's right ``near_cols`` columns at its depth and the rest at the
+    wall's (the flat-surface bias; ``back``: those pixels). ``subject``: a textured subject at d = 12 touching the
+    board's near part on its right (columns 100-119): the near part is then a strip the window grew from it."""
+    h, w = 60, 140
+    colour = rng.uniform(0.1, 0.9, (h, w, 3)).astype(np.float32)
+    board = np.zeros((h, w), bool)
+    board[10:50, 20:100] = True
+    colour[board] = (0.66, 0.58, 0.46)
+    xs = np.arange(w, dtype=np.float32)[None, :].repeat(h, 0)
+    d = np.full((h, w), 2.0, np.float32)
+    d[board] = (12.0 + slope * xs)[board]
+    back = board & (xs < 100 - near_cols)
+    d[back] = 2.0
+    if subject:
+        d[5:55, 100:120] = 12.0 + slope * xs[5:55, 100:120]
+    board &= depth_plate.plain_pixels(colour)
+    return d, colour, board & back, board
+
+
+@pytest.mark.parametrize("slope", [0.0, 0.02])
+def test_whole_boards_give_a_split_plain_board_its_near_part_plane(rng, slope):
+    d, colour, back, board = _split_board(rng, slope=slope)
+    flat = depth_plate.plain_pixels(colour)
+    assert back.sum() > 0.5 * board.sum()  # the case: most of the board at the back
+    out, moved = depth_plate.whole_boards(d, colour, flat)
+    np.testing.assert_array_equal(moved, back)  # the board's back part, and nothing else
+    xs = np.nonzero(back)[1]
+    np.testing.assert_allclose(out[back], 12.0 + slope * xs, atol=0.02)  # the near part's plane, carried on
+    np.testing.assert_array_equal(out[~back], d[~back])
+
+
+@pytest.mark.parametrize("case", ["grown from a subject", "small near part", "one depth"])
+def test_whole_boards_leave_a_near_part_they_cannot_trust(rng, case):
+    """A near part beside a textured subject at its depth (the window's fattening, not a board), a near part under
+    ``share`` of the surface, and a surface the map has at one depth stay as they are."""
+    kw = {"grown from a subject": {"subject": True}, "small near part": {"near_cols": 12},
+          "one depth": {"near_cols": 0}}[case]
+    d, colour, _, _ = _split_board(rng, **kw)
+    out, moved = depth_plate.whole_boards(d, colour, depth_plate.plain_pixels(colour))
+    assert not moved.any(), case
+    np.testing.assert_array_equal(out, d)
+    if case == "small near part":  # a lower share takes it
+        assert depth_plate.whole_boards(d, colour, depth_plate.plain_pixels(colour), share=0.1)[1].any()
+
+
+def test_whole_boards_are_on_by_default_and_their_settings_are_checked():
+    from vfxstereo.errors import VfxStereoError
+
+    assert depth.DepthConfig().boards
+    for bad in ({"boards_share": 1.5}, {"boards_far": -0.1}):
+        with pytest.raises(VfxStereoError):
+            depth.DepthConfig(**bad)
+
+
+def test_whole_boards_complete_a_plain_board_a_stereo_pair_split():
+    """On a stereo pair the flat-surface bias sends more than half of a plain board in front of a textured wall
+    back (its flat guard keeps it at K = 5); step 17 gives the rest the plane of the part its edges placed, and the
+    wall is left where it is."""
+    scene = _plain_board_over_textured_wall(K=2)
+    views = scene.views()
+    gt = scene.gt_disparity(0.5)
+    warper = Warper(Camera.from_positions(scene.positions, scene.reference), np.arange(0.0, 13.25, 0.5), gt.shape)
+    board = gt > 6
+    far, wall_near = {}, {}
+    for on in (False, True):
+        d = depth.robust_depth(views, warper, scene.reference, config=depth.DepthConfig(boards=on)).disparity
+        far[on] = float(np.mean(d[board] < gt[board] - 1))
+        wall_near[on] = float(np.mean(d[~board] > gt[~board] + 1))
+    assert far[False] > 0.4, far  # the case exists on a pair
+    assert far[True] < 0.15, far
+    assert wall_near[True] <= wall_near[False] + 0.002, wall_near

@@ -40,8 +40,8 @@ This stage gives the layered model a dependable front surface instead, from clas
    front and back disparity by a pixelwise cost with colour-adaptive support weights over the views that see
    the back candidate (:func:`refine_edges`), against the foreground fattening of steps 1-3.
 
-Steps 9-16, run once on the whole plate's map after the strips (gaps and colours reopened, thin near
-structures brought back, plain joins, edge ownership, grille cells), are in :mod:`vfxstereo.depth_plate`.
+Steps 9-17, run once on the whole plate's map after the strips (gaps and colours reopened, thin near
+structures brought back, plain joins, edge ownership, grille cells, whole boards), are in :mod:`vfxstereo.depth_plate`.
 
 Measured (``benchmarks/middlebury.py``, all 31 sets, one published px apart, the GT's view as reference):
 0.47x OpenCV SGBM's bad pixels on average (9.4 % against 19.5 %), at most 0.88x (Midd1). Per set: tsukuba
@@ -74,7 +74,7 @@ views 0.69x; the mean with one visibility pass 0.66x (and 0.56x over all 31 sets
 class DepthConfig:
     """Settings of :func:`robust_depth`.
 
-    The functions of steps 9-16 that the notes below name (``reopen_gaps``, ``reopen_by_colour``, ``join_plain``,
+    The functions of steps 9-17 that the notes below name (``reopen_gaps``, ``reopen_by_colour``, ``join_plain``,
     ``views_confirm``, ...) are in :mod:`vfxstereo.depth_plate`.
     """
 
@@ -753,6 +753,32 @@ class DepthConfig:
     ratio 2.5 30.76 / 24.86, losing 16 / 9."""
     colour_again_near: int = 4
     """Step 16's reach around the pixels steps 14 and 15 moved (px); 0: the whole plate."""
+    boards: bool = True
+    """Step 17 (:func:`whole_boards`), on the whole plate: a plain surface of one colour that the map splits
+    between a near part and a farther rest takes its near part's plane throughout, where that near part is the
+    nearest thing around it (``boards_far``); checked against the views as step 12's moves. A plain board in
+    front on a stereo pair: its edges place part of it, the flat-surface bias sends the rest back, and where no
+    edge on the same rows claims the rest (its top and bottom edges tell nothing along the rows) step 13 leaves it.
+
+    Added in session 40, on by default. On the final maps of the 31 tuning scenes it moved pixels in five: at
+    K = 2 sign_plant_aloe's sign 4757 px, panel_hair_books' panel 9077, fur_pillar_monopoly's pillar 2108,
+    boards_rocks' board 144, rabbit_cream_board 9, every one of them to its true depth (none was there before); at
+    K = 5 panel_hair_books 3998, sign_plant_aloe 132, boards_rocks 72 (all to the truth) and rabbit_cream_board 430
+    (113 at the truth before, 323 after). Measured on the z-key benchmark (frame / band dB; rows losing to the
+    SGBM key): tuning rows (302) 30.97 / 24.93 -> 31.46 / 25.01, losing 10 / 7 -> 11 / 7 (sign_plant_aloe K = 2
+    +8.82 / +3.33, panel_hair_books +5.95 and +6.44 frame at K = 2 and 5, fur_pillar_monopoly K = 2 +1.34 frame;
+    the row that turns was a tie, panel_hair_books K = 2's card at d = 3, +0.01 -> -0.06 against the SGBM key);
+    held-out rows (60, scored after the choice) 27.24 / 22.10 -> 27.20 / 22.11, none turning (plank_toy_wood
+    K = 2: 37 px moved, all to the truth, and the soft edges answer with -2.4 dB on one row's frame); Middlebury,
+    depth only, from all views 9.20 -> 9.21 % (Wood1 4.88 -> 5.23, SGBM 7.91; no other set changes), from the
+    classic pair 14.33 % either way. Tried: ``boards_far`` 0.6 also moved grille cells whose near part sits at
+    the bars' depth (ostrich_grille, 86 and 123 px, all wrong), and counting only textured pixels around the near
+    part moved fur_pillar_monopoly K = 5's strip between its plain pillar and the card (1037 px, all wrong)."""
+    boards_share: float = 0.2
+    """Step 17 moves a surface only where its near part is at least this share of it."""
+    boards_far: float = 0.8
+    """Step 17 moves a surface only where at least this share of the pixels 4 to 12 px around its near part lie
+    farther by more than ``join_jump``."""
 
     def __post_init__(self):
         if (self.box < 1 or self.paths not in (4, 8) or self.median < 0 or self.visibility_passes < 0
@@ -763,14 +789,16 @@ class DepthConfig:
                 or self.reopen_settle < 0 or self.aggregation not in ("box", "guided")
                 or self.guided_radius < 1 or self.guided_eps <= 0 or self.rival_jump < 0 or self.rival_scale <= 0
                 or self.guard_jump < 0 or self.guard_radius < 1 or not 0 < self.guard_share <= 1
-                or self.guard_unlike < 0 or self.guard_carry < 0):
+                or self.guard_unlike < 0 or self.guard_carry < 0 or not 0 <= self.boards_share <= 1
+                or not 0 <= self.boards_far <= 1):
             raise VfxStereoError("depth settings: box >= 1, paths 4 or 8, median >= 0, visibility_passes >= 0, "
                                  "flat_window >= 1, reopen_passes >= 0, reopen_radii >= 1, 0 < reopen_ratio <= 1, "
                                  "reopen_floor, reopen_relative, reopen_jitter, reopen_jump, reopen_settle >= 0, "
                                  "reopen_views >= 1, 0 <= reopen_pair <= 1, aggregation 'box' or 'guided', "
                                  "guided_radius >= 1, "
                                  "guided_eps > 0, rival_jump >= 0, rival_scale > 0, guard_jump >= 0, "
-                                 "guard_radius >= 1, 0 < guard_share <= 1, guard_unlike, guard_carry >= 0")
+                                 "guard_radius >= 1, 0 < guard_share <= 1, guard_unlike, guard_carry >= 0, "
+                                 "0 <= boards_share <= 1, 0 <= boards_far <= 1")
         if self.consistency_contradict < 0 or self.consistency_region < 1:
             raise VfxStereoError("depth settings: consistency_contradict >= 0, consistency_region >= 1")
         if not (0 <= self.P1 <= self.P2):
@@ -822,7 +850,7 @@ class DepthResult:
     """(H, W) float32 the rival-gated map of step 14 (``DepthConfig.cells``), else None."""
     pair: np.ndarray | None = None
     """(H, W) float32 the map of view ``pair_view`` as a reference of its own (step 6's rematch), for step 9 on a
-    stereo pair (``DepthConfig.reopen_pair``); None without the rematch, and once steps 9-16 are done."""
+    stereo pair (``DepthConfig.reopen_pair``); None without the rematch, and once steps 9-17 are done."""
     pair_view: int | None = None
     """The view ``pair`` was solved for (the consistency check's), or None without the rematch."""
 
@@ -1414,7 +1442,7 @@ def robust_depth(views: np.ndarray, warper, reference: int, *, config: DepthConf
     K, h, w = views.shape[:3]
     if not 0 <= reference < K:
         raise VfxStereoError(f"reference view {reference} is not one of the {K} views")
-    from vfxstereo.depth_plate import _reopened  # steps 9-16 (that module imports this one)
+    from vfxstereo.depth_plate import _reopened  # steps 9-17 (that module imports this one)
 
     plan = [(0, h, 0, h)] if keep_volume else strip_plan(warper, config)
     if len(plan) == 1:

@@ -1,4 +1,4 @@
-"""The robust depth stage's whole-plate steps 9-16: the map of :mod:`vfxstereo.depth`'s steps 1-8, corrected.
+"""The robust depth stage's whole-plate steps 9-17: the map of :mod:`vfxstereo.depth`'s steps 1-8, corrected.
 
 :func:`vfxstereo.depth.robust_depth` solves steps 1-8 in horizontal strips when the cost volumes exceed
 their memory budget; :func:`_reopened` then runs these steps once on the whole plate's map:
@@ -43,6 +43,11 @@ their memory budget; :func:`_reopened` then runs these steps once on the whole p
    cells step 14's map missed.
 16. Rims (``colour_again``), around the cells steps 14 and 15 sent back: step 10 once more, with a lower
    ratio: the rim of wall colour the window left around each bar goes back with its cell.
+17. Whole boards (``boards``, :func:`whole_boards`), on the whole plate: a plain surface of one colour that the
+   map splits between a near part and a farther rest takes the near part's plane throughout, where that near
+   part is the nearest thing around it and the views do not contradict the move: a plain board in front whose
+   edges placed part of it, the rest sent back by the flat-surface bias (a stereo pair's sign or panel, where
+   steps 6 and 13 found no edge to claim the rest).
 
 Where the map's foreground fattening costs the z-key most (session 27, the z-key scenes that were tuning scenes
 then, 68 rows): of the near-edge pixels put more than 1 px too near (19 % of the pixels within 4 px of a true
@@ -82,15 +87,19 @@ from vfxstereo.progress import Progress, report
 
 
 def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConfig, progress) -> DepthResult:
-    """``res`` after the whole-plate steps 9-16 (reopen, colour_reopen, thin, join, own, cells, spread, rims)."""
+    """``res`` after the whole-plate steps 9-17.
+
+    Reopen, colour_reopen, thin, join, own, cells, spread, rims, boards.
+    """
     from vfxstereo.layers import plane_index
     from vfxstereo.sweep import matching_values
 
     changed = False
-    # the plate in sRGB, for the colour tests of steps 10 and 12-16: converted once
+    # the plate in sRGB, for the colour tests of steps 10 and 12-17: converted once
     cells = res.cells is not None
     colour = (matching_values(views[reference], "srgb", 1.0)
-              if config.colour_reopen or config.join or config.own or cells or config.colour_again > 0 else None)
+              if config.colour_reopen or config.join or config.own or cells or config.colour_again > 0
+              or config.boards else None)
     pair, res.pair = res.pair, None  # step 6's map of the pair's other view: step 9's check on a pair, then freed
     if config.reopen and config.reopen_passes > 0 and views.shape[0] - 1 >= config.reopen_views:
         t0 = time.perf_counter()
@@ -114,8 +123,8 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
                                          jump=config.colour_jump)[0]
         res.timings["colour reopen"] = time.perf_counter() - t0
         changed = True
-    checks = config.join_check and (config.join or config.own or cells or config.colour_again > 0)
-    kept: dict = {}  # step 11's view errors of the map, for the checks of steps 12-16 while the map is unchanged
+    checks = config.join_check and (config.join or config.own or cells or config.colour_again > 0 or config.boards)
+    kept: dict = {}  # step 11's view errors of the map, for the checks of steps 12-17 while the map is unchanged
     if config.thin:
         t0 = time.perf_counter()
         thin, moved = recover_thin(views, warper, reference, res.disparity, config=config,
@@ -126,7 +135,7 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
             kept.clear()
         res.timings["thin"] = time.perf_counter() - t0
 
-    def checked(name, t0, proposed, moved):  # steps 12-16: moves the views do not contradict
+    def checked(name, t0, proposed, moved):  # steps 12-17: moves the views do not contradict
         nonlocal changed
         if moved.any() and config.join_check:
             proposed = views_confirm(views, warper, reference, res.disparity, proposed, jitter=config.reopen_jitter,
@@ -141,7 +150,7 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
             kept.clear()
         res.timings[name] = time.perf_counter() - t0
 
-    flat = plain_pixels(colour, config.join_plain) if config.join or config.own or cells else None
+    flat = plain_pixels(colour, config.join_plain) if config.join or config.own or cells or config.boards else None
     if config.join:
         t0 = time.perf_counter()
         checked("join", t0, *join_plain(res.disparity, colour, plain=config.join_plain, like=config.join_like,
@@ -180,6 +189,10 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
             moved &= near
             again = np.where(moved, again, res.disparity).astype(np.float32)
         checked("colour again", t0, again, moved)
+    if config.boards:
+        t0 = time.perf_counter()
+        checked("boards", t0, *whole_boards(res.disparity, colour, flat, jump=config.join_jump, like=config.join_like,
+                                            share=config.boards_share, far=config.boards_far))
     if changed:  # the planes of the map the steps left, once
         res.index = plane_index(res.disparity, warper.disparities)
     return res
@@ -867,6 +880,55 @@ def spread_cells(disparity: np.ndarray, colour: np.ndarray, flat: np.ndarray, *,
             break
         d = new
     return d, d != d0
+
+
+def whole_boards(disparity: np.ndarray, colour: np.ndarray, flat: np.ndarray, *, jump: float = 1.5,
+                 like: float = 0.04, share: float = 0.2, size: int = 200, ring: tuple[int, int] = (4, 12),
+                 far: float = 0.8) -> tuple[np.ndarray, np.ndarray]:
+    """Step 17: ``(proposed map, moved)``: a plain board in front, split by the map, made whole at its near depth.
+
+    The flat-surface bias sends a plain surface back; a plain board in front whose edges placed part of it (the
+    map's near part) keeps the rest at the back. Each plain surface of one colour (:func:`plain_surfaces` of the
+    colour alone, ``flat`` pixels within ``like``, at least ``size`` px) whose pixels within 1 px of its near
+    depth (the 90th percentile of the map over it) are at least ``share`` of it, where the map has the rest
+    farther by more than ``jump``, and where at least ``far`` of the pixels ``ring`` px around that near part
+    (any but the surface's own) lie farther by more than ``jump``: the board is the nearest thing there, so its
+    near part is not a strip the window grew from a neighbour at that depth (a subject's fattening, a grille's
+    bars). Its farther pixels take the plane through its near part (least squares, or the near part's median
+    where the plane leaves more than 0.5 px RMS), within 2 px of its near depth.
+    """
+    from scipy import ndimage
+
+    d = np.asarray(disparity, np.float32)
+    proposed = d.copy()
+    apart, n = plain_surfaces(np.zeros_like(d), colour, flat, tolerance=1.0, like=like)
+    sizes = np.bincount(apart[apart >= 0], minlength=n)
+    objects = ndimage.find_objects(apart + 1)
+    h, w = d.shape
+    for i in np.nonzero(sizes >= size)[0]:
+        sl = objects[i]
+        ys = slice(max(sl[0].start - ring[1] - 1, 0), min(sl[0].stop + ring[1] + 1, h))
+        xs = slice(max(sl[1].start - ring[1] - 1, 0), min(sl[1].stop + ring[1] + 1, w))
+        region = apart[ys, xs] == i
+        dw = d[ys, xs]
+        top = float(np.percentile(dw[region], 90))
+        near = region & (np.abs(dw - top) <= 1.0)
+        back = region & (dw < top - jump)
+        if near.sum() < share * region.sum() or not back.any():
+            continue
+        around = (ndimage.binary_dilation(near, iterations=ring[1])
+                  & ~ndimage.binary_dilation(near, iterations=ring[0]) & ~region)
+        if not around.any() or (dw[around] < top - jump).mean() < far:
+            continue
+        gy, gx = np.nonzero(near)
+        a = np.stack([np.ones(gx.size), gx, gy], axis=1).astype(np.float64)
+        coef = np.linalg.lstsq(a, dw[near].astype(np.float64), rcond=None)[0]
+        if np.sqrt(np.mean((a @ coef - dw[near]) ** 2)) > 0.5:
+            coef = np.array([np.median(dw[near]), 0.0, 0.0])
+        by, bx = np.nonzero(back)
+        fill = np.clip(coef[0] + coef[1] * bx + coef[2] * by, top - 2.0, top + 2.0)
+        proposed[ys, xs][by, bx] = fill.astype(np.float32)
+    return proposed, proposed != d
 
 
 def plain_pixels(colour: np.ndarray, plain: float = 3.0) -> np.ndarray:
