@@ -1491,3 +1491,53 @@ def test_whole_boards_complete_a_plain_board_a_stereo_pair_split():
     assert far[False] > 0.4, far  # the case exists on a pair
     assert far[True] < 0.15, far
     assert wall_near[True] <= wall_near[False] + 0.002, wall_near
+
+
+def _level_grille(rng, *, line_colour=0.8, posts=8, first=30):
+    """(disparity, colour, rails): a grille of bright bars over a dim, finely textured wall at d = 2: ``posts``
+    vertical bars (2 px wide, 20 px apart from x = ``first``) that the map has at the grille's depth, 12, and three
+    level bars across the frame (2 px tall, at y = 20, 50, 80, of ``line_colour``) that it has at the wall's depth
+    except where they cross the posts. ``rails``: the level bars' pixels off the posts."""
+    from scipy import ndimage
+
+    h, w = 100, 200
+    colour = (0.35 + 0.05 * ndimage.gaussian_filter(rng.standard_normal((h, w, 3)), (1, 1, 0))).astype(np.float32)
+    d = np.full((h, w), 2.0, np.float32)
+    posts_mask = np.zeros((h, w), bool)
+    for x in range(first, first + 20 * posts, 20):
+        posts_mask[:, x:x + 2] = True
+    rails = np.zeros((h, w), bool)
+    for y in (20, 50, 80):
+        rails[y:y + 2] = True
+    colour[rails] = line_colour
+    colour[posts_mask] = 0.8
+    d[posts_mask] = 12.0
+    return d, colour, rails & ~posts_mask
+
+
+def test_level_rails_give_a_grilles_level_bars_the_depth_of_their_crossings(rng):
+    d, colour, rails = _level_grille(rng)
+    out, moved = depth_plate.level_rails(d, colour)
+    np.testing.assert_array_equal(moved, rails)  # the level bars, and nothing else
+    np.testing.assert_array_equal(out[moved], 12.0)
+    np.testing.assert_array_equal(out[~moved], d[~moved])
+
+
+@pytest.mark.parametrize("case", ["a texture line of another colour", "three crossings"])
+def test_level_rails_leave_lines_their_crossings_do_not_vouch_for(rng, case):
+    kw = {"a texture line of another colour": {"line_colour": 0.1}, "three crossings": {"posts": 3, "first": 40}}[case]
+    d, colour, _ = _level_grille(rng, **kw)
+    out, moved = depth_plate.level_rails(d, colour)
+    assert not moved.any(), case
+    np.testing.assert_array_equal(out, d)
+    if case == "three crossings":  # enough for a lower count
+        assert depth_plate.level_rails(d, colour, pieces=3)[1].any()
+
+
+def test_level_rails_are_on_by_default_and_their_settings_are_checked():
+    from vfxstereo.errors import VfxStereoError
+
+    assert depth.DepthConfig().rails
+    for bad in ({"rails_contrast": -0.1}, {"rails_pieces": 0}):
+        with pytest.raises(VfxStereoError):
+            depth.DepthConfig(**bad)

