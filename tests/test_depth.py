@@ -430,19 +430,27 @@ def test_a_stereo_pair_keeps_part_of_a_plain_board_both_views_biased_back():
     """The whole depth stage at K = 2: both views' maps send the plain board back (the flat-surface bias); until
     session 38 the pair check then threw away the part the reference's map had right. Measured: the board's
     pixels too far 99.9 % -> 55.9 %, no wall pixel too near either way."""
+    assert depth.DepthConfig().consistency_contradict > 0  # on by default
+    far, wall_near = _pair_board_errors({"off": depth.DepthConfig(consistency_contradict=0.0, boards=False),
+                                         "on": depth.DepthConfig(boards=False)})  # step 17 finishes the board
+    assert far["off"] > 0.95 and far["on"] < 0.7, far
+    assert wall_near["on"] <= wall_near["off"] + 0.002, wall_near
+
+
+def _pair_board_errors(configs: dict) -> tuple[dict, dict]:
+    """Per config, the depth stage's share of the plain board's pixels too far and of the wall's too near (more
+    than 1 px) on :func:`_plain_board_over_textured_wall` at K = 2."""
     scene = _plain_board_over_textured_wall(K=2)
     views = scene.views()
     gt = scene.gt_disparity(0.5)
     warper = Warper(Camera.from_positions(scene.positions, scene.reference), np.arange(0.0, 13.25, 0.5), gt.shape)
     board = gt > 6
     far, wall_near = {}, {}
-    assert depth.DepthConfig().consistency_contradict > 0  # on by default
-    for name, config in (("off", depth.DepthConfig(consistency_contradict=0.0)), ("on", depth.DepthConfig())):
+    for name, config in configs.items():
         d = depth.robust_depth(views, warper, scene.reference, config=config).disparity
         far[name] = float(np.mean(d[board] < gt[board] - 1))
         wall_near[name] = float(np.mean(d[~board] > gt[~board] + 1))
-    assert far["off"] > 0.95 and far["on"] < 0.7, far
-    assert wall_near["on"] <= wall_near["off"] + 0.002, wall_near
+    return far, wall_near
 
 
 def test_the_pair_check_settings_are_checked():
@@ -790,7 +798,8 @@ def test_the_flat_guard_keeps_a_plain_board_in_front_of_a_textured_wall():
     board = gt > 6
     far, wall_near = {}, {}
     assert depth.DepthConfig().flat_guard  # on by default
-    for name, config in (("off", depth.DepthConfig(flat_guard=False)), ("guard", depth.DepthConfig())):
+    for name, config in (("off", depth.DepthConfig(flat_guard=False, boards=False)),
+                         ("guard", depth.DepthConfig(boards=False))):  # the guard alone, without step 17
         d = depth.robust_depth(views, warper, scene.reference, config=config).disparity
         far[name] = float(np.mean(d[board] < gt[board] - 1))
         wall_near[name] = float(np.mean(d[~board] > gt[~board] + 1))
@@ -1478,16 +1487,7 @@ def test_whole_boards_complete_a_plain_board_a_stereo_pair_split():
     """On a stereo pair the flat-surface bias sends more than half of a plain board in front of a textured wall
     back (its flat guard keeps it at K = 5); step 17 gives the rest the plane of the part its edges placed, and the
     wall is left where it is."""
-    scene = _plain_board_over_textured_wall(K=2)
-    views = scene.views()
-    gt = scene.gt_disparity(0.5)
-    warper = Warper(Camera.from_positions(scene.positions, scene.reference), np.arange(0.0, 13.25, 0.5), gt.shape)
-    board = gt > 6
-    far, wall_near = {}, {}
-    for on in (False, True):
-        d = depth.robust_depth(views, warper, scene.reference, config=depth.DepthConfig(boards=on)).disparity
-        far[on] = float(np.mean(d[board] < gt[board] - 1))
-        wall_near[on] = float(np.mean(d[~board] > gt[~board] + 1))
+    far, wall_near = _pair_board_errors({False: depth.DepthConfig(boards=False), True: depth.DepthConfig()})
     assert far[False] > 0.4, far  # the case exists on a pair
     assert far[True] < 0.15, far
     assert wall_near[True] <= wall_near[False] + 0.002, wall_near
