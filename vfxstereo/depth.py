@@ -40,8 +40,9 @@ This stage gives the layered model a dependable front surface instead, from clas
    front and back disparity by a pixelwise cost with colour-adaptive support weights over the views that see
    the back candidate (:func:`refine_edges`), against the foreground fattening of steps 1-3.
 
-Steps 9-17, run once on the whole plate's map after the strips (gaps and colours reopened, thin near
-structures brought back, plain joins, edge ownership, grille cells, whole boards), are in :mod:`vfxstereo.depth_plate`.
+Steps 9-18, run once on the whole plate's map after the strips (gaps and colours reopened, thin near
+structures brought back, plain joins, edge ownership, grille cells, whole boards, level rails), are in
+:mod:`vfxstereo.depth_plate`.
 
 Measured (``benchmarks/middlebury.py``, all 31 sets, one published px apart, the GT's view as reference):
 0.47x OpenCV SGBM's bad pixels on average (9.4 % against 19.5 %), at most 0.88x (Midd1). Per set: tsukuba
@@ -74,7 +75,7 @@ views 0.69x; the mean with one visibility pass 0.66x (and 0.56x over all 31 sets
 class DepthConfig:
     """Settings of :func:`robust_depth`.
 
-    The functions of steps 9-17 that the notes below name (``reopen_gaps``, ``reopen_by_colour``, ``join_plain``,
+    The functions of steps 9-18 that the notes below name (``reopen_gaps``, ``reopen_by_colour``, ``join_plain``,
     ``views_confirm``, ...) are in :mod:`vfxstereo.depth_plate`.
     """
 
@@ -874,7 +875,7 @@ class DepthResult:
     """(H, W) float32 the rival-gated map of step 14 (``DepthConfig.cells``), else None."""
     pair: np.ndarray | None = None
     """(H, W) float32 the map of view ``pair_view`` as a reference of its own (step 6's rematch), for step 9 on a
-    stereo pair (``DepthConfig.reopen_pair``); None without the rematch, and once steps 9-17 are done."""
+    stereo pair (``DepthConfig.reopen_pair``); None without the rematch, and once steps 9-18 are done."""
     pair_view: int | None = None
     """The view ``pair`` was solved for (the consistency check's), or None without the rematch."""
 
@@ -1466,7 +1467,7 @@ def robust_depth(views: np.ndarray, warper, reference: int, *, config: DepthConf
     K, h, w = views.shape[:3]
     if not 0 <= reference < K:
         raise VfxStereoError(f"reference view {reference} is not one of the {K} views")
-    from vfxstereo.depth_plate import _reopened  # steps 9-17 (that module imports this one)
+    from vfxstereo.depth_plate import _reopened  # steps 9-18 (that module imports this one)
 
     plan = [(0, h, 0, h)] if keep_volume else strip_plan(warper, config)
     if len(plan) == 1:

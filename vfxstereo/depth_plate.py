@@ -1,4 +1,4 @@
-"""The robust depth stage's whole-plate steps 9-17: the map of :mod:`vfxstereo.depth`'s steps 1-8, corrected.
+"""The robust depth stage's whole-plate steps 9-18: the map of :mod:`vfxstereo.depth`'s steps 1-8, corrected.
 
 :func:`vfxstereo.depth.robust_depth` solves steps 1-8 in horizontal strips when the cost volumes exceed
 their memory budget; :func:`_reopened` then runs these steps once on the whole plate's map:
@@ -48,6 +48,10 @@ their memory budget; :func:`_reopened` then runs these steps once on the whole p
    part is the nearest thing around it and the views do not contradict the move: a plain board in front whose
    edges placed part of it, the rest sent back by the flat-surface bias (a stereo pair's sign or panel, where
    steps 6 and 13 found no edge to claim the rest).
+18. Level rails (``rails``, :func:`level_rails`), on the whole plate: a thin level line whose crossings the map
+   placed nearer than what lies around the line, at four or more places, takes their depth along its length,
+   where the line has their colour and the views do not contradict the move: a grille's bar, a rail or a wire
+   along a horizontal rig's baseline, which shifts along itself, so that matching along the rows cannot see it.
 
 Where the map's foreground fattening costs the z-key most (session 27, the z-key scenes that were tuning scenes
 then, 68 rows): of the near-edge pixels put more than 1 px too near (19 % of the pixels within 4 px of a true
@@ -88,15 +92,15 @@ from vfxstereo.progress import Progress, report
 
 
 def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConfig, progress) -> DepthResult:
-    """``res`` after the whole-plate steps 9-17.
+    """``res`` after the whole-plate steps 9-18.
 
-    Reopen, colour_reopen, thin, join, own, cells, spread, rims, boards.
+    Reopen, colour_reopen, thin, join, own, cells, spread, rims, boards, rails.
     """
     from vfxstereo.layers import plane_index
     from vfxstereo.sweep import matching_values
 
     changed = False
-    # the plate in sRGB, for the colour tests of steps 10 and 12-17: converted once
+    # the plate in sRGB, for the colour tests of steps 10 and 12-18: converted once
     cells = res.cells is not None
     colour = (matching_values(views[reference], "srgb", 1.0)
               if config.colour_reopen or config.join or config.own or cells or config.colour_again > 0
@@ -126,7 +130,7 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
         changed = True
     checks = config.join_check and (config.join or config.own or cells or config.colour_again > 0 or config.boards
                                     or config.rails)
-    kept: dict = {}  # step 11's view errors of the map, for the checks of steps 12-17 while the map is unchanged
+    kept: dict = {}  # step 11's view errors of the map, for the checks of steps 12-18 while the map is unchanged
     if config.thin:
         t0 = time.perf_counter()
         thin, moved = recover_thin(views, warper, reference, res.disparity, config=config,
@@ -137,7 +141,7 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
             kept.clear()
         res.timings["thin"] = time.perf_counter() - t0
 
-    def checked(name, t0, proposed, moved):  # steps 12-17: moves the views do not contradict
+    def checked(name, t0, proposed, moved):  # steps 12-18: moves the views do not contradict
         nonlocal changed
         if moved.any() and config.join_check:
             proposed = views_confirm(views, warper, reference, res.disparity, proposed, jitter=config.reopen_jitter,
