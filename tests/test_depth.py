@@ -1428,10 +1428,11 @@ def test_grille_cells_are_on_by_default_and_their_settings_are_checked():
 
 
 def _split_board(rng, *, slope=0.0, near_cols=30, subject=False):
-    """(disparity, colour, board, back): a plain board (rows 10-49, columns 20-99) at d = 12 + slope * x in front of a
-    textured wall at d = 2. The map has the board's right ``near_cols`` columns at its depth and the rest at the
-    wall's (the flat-surface bias; ``back``: those pixels). ``subject``: a textured subject at d = 12 touching the
-    board's near part on its right (columns 100-119): the near part is then a strip the window grew from it."""
+    """(disparity, colour, back, board): a plain board (rows 10-49, columns 20-99) at d = 12 + slope * x in front of
+    a textured wall at d = 2. The map has the board's right ``near_cols`` columns at its depth and the rest at the
+    wall's (the flat-surface bias; ``back``: those of the board's plain pixels; ``board``: all of them).
+    ``subject``: a textured subject at d = 12 touching the board's near part on its right (columns 100-119): the
+    near part is then a strip the window grew from it."""
     h, w = 60, 140
     colour = rng.uniform(0.1, 0.9, (h, w, 3)).astype(np.float32)
     board = np.zeros((h, w), bool)

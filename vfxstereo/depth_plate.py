@@ -987,7 +987,7 @@ def level_rails(disparity: np.ndarray, colour: np.ndarray, *, jump: float = 1.5,
         outside = (ndimage.binary_dilation(comp, structure=np.ones((3, 1), bool), iterations=3) & ~comp
                    & ~line[ys, sl[1]])
         rows = np.pad(np.where(outside, dw, np.nan), ((0, 0), (gap, gap)), constant_values=np.nan)
-        with np.errstate(all="ignore"), warnings.catch_warnings():
+        with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)  # columns with nothing above or below: NaN
             around = np.nanmedian(np.lib.stride_tricks.sliding_window_view(rows, 2 * gap + 1, axis=1), axis=(0, 2))
         near = np.isfinite(around[cx]) & (dw[cy, cx] > around[cx] + jump)
