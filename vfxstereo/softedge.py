@@ -101,7 +101,7 @@ class SoftEdgeParams:
     sample, without a second to agree: K = 5 +0.05 / +0.15 (boards_rocks +0.9 / +2.1, the troll's hair over
     rocks), but K = 2 -0.09 / -0.16: shelf_grille K = 2 -25 dB on the band of a card behind the teddy, where a
     map a little off makes the one other view look through; samples taken a quarter or half pixel off (so a
-    strand resampled off counts as seen) kept shelf_grille and lost most of boards_rocks (+0.5). At 1920x1080 x
+    strand resampled off counts as seen) did not save shelf_grille and left boards_rocks +0.5. At 1920x1080 x
     64 planes, K = 5 (``samples.layered_scene``), side by side: the stages after the depth 13.5 -> 14.3 s (only
     the points the band samples are looked through). The fattened-hair test of ``dilate``: with the rim grown by
     3 px, RMS alpha error 0.174 -> 0.086 (tests/test_layers.py)."""
