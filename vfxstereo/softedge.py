@@ -403,6 +403,11 @@ def background_image(views: np.ndarray, warper, plane: int, disparity: np.ndarra
     return filled, seen
 
 
+def _z_at(zbuffer: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """The z-buffer's disparity at view positions ``(u, v)``: the nearest pixel's (NaN positions read pixel 0)."""
+    return ndimage.map_coordinates(zbuffer, [np.nan_to_num(v), np.nan_to_num(u)], order=0, mode="nearest")
+
+
 def _seen_through(views: np.ndarray, warper, plane: int, disparity: np.ndarray, filled: np.ndarray,
                   hidden: np.ndarray, gains: np.ndarray | None, zbuffers: list[np.ndarray], reference: int,
                   tolerance: float, floor: float) -> np.ndarray:
@@ -433,21 +438,18 @@ def _seen_through(views: np.ndarray, warper, plane: int, disparity: np.ndarray, 
     def differ(a, b):
         return ((a - b) ** 2).sum(axis=1) > floor + 0.01 * (b ** 2).sum(axis=1)
 
-    def z_at(k, u, v):  # the nearest disparity the map puts on view k's pixel
-        return ndimage.map_coordinates(zbuffers[k], [np.nan_to_num(v), np.nan_to_num(u)], order=0, mode="nearest")
-
     others = [k for k in range(views.shape[0]) if k != reference]
     votes = np.full((len(others), len(ys)), np.nan, np.float32)
     samples = []  # per view, its sample of the plane where it sees the plane, NaN elsewhere
     for n, k in enumerate(others):
         u, v = warper.points_to_view(k, xf, yf, d_own)
         S, inside = _sample(views[k], u, v)
-        sees = inside & (z_at(k, u, v) <= d_own + tolerance)  # nothing nearer hides the pixel's front point
+        sees = inside & (_z_at(zbuffers[k], u, v) <= d_own + tolerance)  # nothing nearer hides the pixel's front point
         votes[n] = np.where(sees, differ(S * gain[k], own), np.nan)
         u, v = warper.points_to_view(k, xf, yf, d_b)
         S, inside = _sample(views[k], u, v)
         S *= gain[k]
-        zk = z_at(k, u, v)
+        zk = _z_at(zbuffers[k], u, v)
         blocked = inside & np.isfinite(zk) & (zk > d_b + tolerance)  # the map puts a nearer point on the ray
         X, Y = warper.transfer(k, xf, yf, d_b, np.where(blocked, zk, d_b))
         R, rin = _sample(plate, X, Y)
@@ -629,7 +631,7 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
         if gains is not None:
             I[k] *= gains[k]
         zb = zbuffer(warper, disparity, k) if zbuffers is None else zbuffers[k]
-        zk = ndimage.map_coordinates(zb, [np.nan_to_num(v), np.nan_to_num(u)], order=0, mode="nearest")
+        zk = _z_at(zb, u, v)
         ok[k] = inside & (zk <= d_front + tol)  # nothing nearer than the front surface hides the point in view k
         if p.third_surface:  # and view k's ray meets no third surface between the front and the back
             ok[k] &= (zk >= d_front - tol) | (zk <= d_back + tol)
@@ -644,13 +646,15 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     plain_bg = np.ones(N, bool)  # a pixel's background plain around it (``separation_where``, SoftEdges.plain_back)
     for n, bp in enumerate(back_planes):
         sel = b == bp
-        used = np.zeros((h, w), bool)  # the plane's points the band samples (bilinear: the 4 around each)
-        for X, Y in behind:
-            x0 = np.clip(np.floor(np.nan_to_num(X[sel])).astype(np.int64), 0, max(w - 2, 0))
-            y0 = np.clip(np.floor(np.nan_to_num(Y[sel])).astype(np.int64), 0, max(h - 2, 0))
-            for dy in (0, 1):
-                for dx in (0, 1):
-                    used[y0 + dy, x0 + dx] = True
+        used = None  # with ``through``: the plane's points the band samples (bilinear: the 4 around each)
+        if p.through > 0:
+            used = np.zeros((h, w), bool)
+            for X, Y in behind:
+                x0 = np.clip(np.floor(np.nan_to_num(X[sel])).astype(np.int64), 0, max(w - 2, 0))
+                y0 = np.clip(np.floor(np.nan_to_num(Y[sel])).astype(np.int64), 0, max(h - 2, 0))
+                for dy in (0, 1):
+                    for dx in (0, 1):
+                        used[y0 + dy, x0 + dx] = True
         image, seen = background_image(views, warper, int(bp), disparity, dilate=p.dilate, tolerance=tol,
                                        gains=gains, zbuffers=grown, fill_sigma=p.fill_sigma, through=p.through,
                                        reference=reference, through_at=used)
