@@ -880,7 +880,8 @@ def laplacian_matte(info: SoftEdges, plate: np.ndarray, index: np.ndarray, p: So
     than ``jump`` apart, each solved on its own with the other groups' pixels known: 1 where their surface
     (``index``) lies on or in front of the group's farthest front plane, else 0.
     Solved in tiles (:data:`LAPLACIAN_TILE`) by conjugate gradients with an incomplete Cholesky preconditioner
-    (``pymatting.cg``, ``pymatting.ichol``).
+    (``pymatting.cg``, ``pymatting.ichol``). Afterwards the pixels the views settle (``p.laplacian_sure``) get
+    their estimate back: 0 on the far side, 1 on the near side.
     """
     import scipy.sparse as sp
     from pymatting import cf_laplacian, cg, ichol, jacobi
