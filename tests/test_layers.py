@@ -726,8 +726,7 @@ def test_the_laplacian_step_solves_each_group_of_front_planes_on_its_own(rng):
 def _spill_case(rng, h=12, w=16):
     """A solid front (columns 0-5, plane 3) beside a wall (plane 0) whose colour ramps from the front's to its own
     over columns 6-9 (light the front throws on it): the colour-line model reads the ramp as the front's soft edge.
-    The
-    matted strip is columns 4-11: near side 4-5 (estimates 1), far side 6-11 (estimates 0). The views see the
+    The matted strip is columns 4-11: near side 4-5 (estimates 1), far side 6-11 (estimates 0). The views see the
     wall through the front's plane on the far side (their estimate 0, the background varying across them: 0.4),
     except column 10 (the background plain across the views: 0.02) and column 11 (the views say 0, the blended
     estimate 0.3: the colour disagrees)."""
@@ -759,7 +758,7 @@ def test_the_laplacian_step_keeps_what_the_views_settle(rng):
     # estimates disagree)
     np.testing.assert_array_equal(ours[settled], (c < 6)[settled].astype(np.float32))
     np.testing.assert_array_equal(ours[~settled], off[~settled])
-    assert off[c == 6].min() > 0.3, off[c == 6].min()  # the ramp's first column; measured 0.45-0.52
+    assert off[c == 6].min() > 0.3, off[c == 6].min()  # the ramp's first column; measured 0.37-0.49
 
 
 @pytest.mark.data
