@@ -189,7 +189,7 @@ def test_soft_edge_settings_that_cannot_work_are_refused():
 
     for bad in ({"radius": 0}, {"dilate": -1}, {"fill_sigma": -1.0}, {"fill_sigma": float("nan")}, {"snap": 0.5},
                 {"reach": -1}, {"relabel_floor": -0.1},
-                {"relabel_radius": -1}, {"min_separation": -0.1}, {"back": "nearest"},
+                {"relabel_radius": -1}, {"middle": -1}, {"min_separation": -0.1}, {"back": "nearest"},
                 {"separation_where": "anywhere"}, {"through": -0.01}, {"through": float("nan")},
                 {"laplacian_sure": -0.1}, {"laplacian_sure": float("nan")}):
         with pytest.raises(VfxStereoError, match="soft edges"):
@@ -817,6 +817,56 @@ def test_views_whose_ray_meets_a_third_surface_do_not_matte_the_edge():
                       float(info.estimates["views"][clear[~np.isnan(info.alpha)]].mean()))
     assert got[False][0] > 0.04 and got[False][1] > 0.05, got  # measured 0.084, 0.094
     assert got[True][0] < 0.01 and got[True][1] < 0.01, got  # measured 0.0001, 0.0005
+
+
+def test_a_rim_fattened_beside_a_nearer_grille_goes_back_through_its_middle_matte():
+    """The card's depth grown 2 px over the wall, where every pixel lies within the band's 8 px of a grille bar:
+    the rim's pixels are on the far side of the grille's edges, matted as grille over card, and never tried as
+    card over wall, so the passes cannot send them back. Matted a second time as near-side pixels of the wall
+    behind them (``SoftEdgeParams.middle``), they go back, and the card stays."""
+    from scipy import ndimage
+
+    s = _grille_card_wall()
+    planes = np.arange(0.0, 9.5, 0.5)
+    warper = Warper(Camera.from_positions(s.positions, s.reference), planes, s.shape)
+    truth = s.gt_disparity(0.5).astype(np.float32)
+    card = truth == 4.0
+    rim = ndimage.binary_dilation(card, iterations=2) & (truth == 1.0)
+    disparity = np.where(rim, np.float32(4.0), truth)
+    index = layers.plane_index(disparity, planes)
+    views = s.views()
+    final = {}
+    for middle in (0, 2):
+        params = softedge.SoftEdgeParams(middle=middle)
+        vol = layers.initial_volume(views, warper, 2, disparity, index, white=1.0)
+        _, info, final[middle] = softedge.soften_edges_passes(vol, views, warper, 2, disparity, index,
+                                                             params=params, white=1.0)
+        if not middle:
+            assert (info.front[rim] > index[rim]).all() and info.middle is None  # all on the grille's far side
+    assert (final[0][rim] == 4.0).all()
+    assert (final[2][rim] == 1.0).mean() > 0.9, (final[2][rim] == 1.0).mean()  # measured 0.99
+    assert (final[2][card] == 4.0).all() and (final[2][truth == 8.0] == 8.0).all()
+
+
+def test_relabel_moves_middle_pixels_to_their_own_back_within_reach_of_it():
+    planes = np.arange(0.0, 8.0)
+    index = np.array([[3, 3, 3, 3, 1]])
+    disparity = planes[index].astype(np.float32)
+    band = np.ones(index.shape, bool)
+    # the far side of a grille on plane 6: never moved by their own matte
+    info = _edges_info(band, np.full(index.shape, 0.1), np.full(index.shape, 6), np.array([[3, 3, 3, 3, 1]]))
+    assert softedge.relabel(disparity, index, info, planes)[2] == 0
+    info.middle = {"alpha": np.array([[0.2, 0.7, 0.2, np.nan, 0.1]], np.float32),
+                   "back": np.array([[1, 1, 2, -1, 0]], np.int32), "confidence": np.zeros(index.shape, np.float32),
+                   "explained": np.zeros((2,) + index.shape, np.float32)}
+    d2, i2, moved = softedge.relabel(disparity, index, info, planes)
+    np.testing.assert_array_equal(i2, [[1, 3, 2, 3, 0]])
+    assert moved == 3 and (d2 == planes[i2]).all()
+    info.middle["explained"][0, 0, 0] = 0.5  # the wall explains the plate worse than the views agree on the card
+    assert softedge.relabel(disparity, index, info, planes, explained=1.0, floor=0.003)[1][0].tolist() == [3, 3, 2,
+                                                                                                          3, 0]
+    near_back = np.array([[True, True, False, False, True]])
+    assert softedge.relabel(disparity, index, info, planes, middle_within=near_back)[1][0].tolist() == [1, 3, 3, 3, 0]
 
 
 def _fattened_hair_rms(params):

@@ -29,7 +29,9 @@ nearest pixel behind it (``back``).
 
 Near-side pixels farther from the jump, up to ``relabel_radius`` px, are matted the same way but never written:
 a pixel the matte puts clear of the foreground moves back, and the next pass's band takes it in. That is how a
-hole the depth map filled (a plain wall seen through wicker) opens, pass by pass from its rim.
+hole the depth map filled (a plain wall seen through wicker) opens, pass by pass from its rim. Far-side pixels
+within ``middle`` px of a surface farther than their own are matted a second time, as that surface's near side,
+the same way: a fattened fence bar beside a nearer grille goes back.
 
 The result replaces the band's cells: the front cell gets (C, alpha) with ``C = I_ref - (1 - alpha) B_ref``
 (so the reference view is reproduced), the back cell the background colour, opaque, and cells between them
@@ -327,6 +329,23 @@ class SoftEdgeParams:
     held out, railing_subject_rocks +0.26 / +0.14 (K = 5) and +0.05 / -0.01 (K = 2), wicker_grille_dolls -0.08 /
     -0.04 and -0.05 / -0.03; Middlebury's held-out views, 8 sets, 38.39 -> 38.40 dB (tsukuba 33.97 -> 34.03, Midd2
     39.12 -> 39.08)."""
+    middle: int = 2
+    """Far-side pixels (a nearer surface within ``radius``) that the depth map put within this many px of a
+    farther surface are matted a second time, as near-side pixels of that farther surface, only to decide whether
+    they move back (:func:`relabel`, as the outer pixels are); 0: they are matted as the far side of the nearer
+    surface alone. A depth map fattens thin structures -- fence bars, twigs, a lattice -- and next to something
+    nearer (a grille over them, foliage in front) every pixel of the fattened rim is on the far side of the nearer
+    surface's edge: matted as grille over fence, never tried as fence over wall, it never moved. Such pixels were
+    a third of the band pixels whose final front lay more than 1 px too near on tree_cloth, lattice_leaves,
+    wire_plant_laundry and beanie_grille at K = 2. The distance is from the depth map the passes start from, so
+    that pass after pass does not eat into a surface: measured with the whole ``radius`` instead, bear_pillar
+    K = 2 lost a solid bear's rim (-5.3 dB on its worst row). A fattened card rim beside a grille goes back
+    (tests/test_layers.py). Measured on the z-key tuning scenes (302 rows, frame / band dB over 0): 2 px
+    +0.09 / +0.10, 3 px the same (+0.09 / +0.11, fur_pillar_monopoly K = 2 -0.8 frame on one row, shelf_grille
+    K = 2 -0.6); the whole band (8 px) +0.02 / +0.05 with 13 rows losing to the SGBM key (10 at 2 px). Scored
+    after the choice (session 43): the held-out scenes +0.13 / +0.15 (60 rows, none below -0.07), all 362 rows
+    +0.10 / +0.11; Middlebury's held-out views tsukuba 34.05 -> 33.95 dB, teddy 31.22 -> 31.23, Cloth1 41.29 the
+    same; the soft-edge stage takes 1.01-1.05x the time (three z-key scenes, side by side)."""
     third_surface: bool = True
     """The multi-view estimate leaves out a view whose z-buffer, where it sees the band pixel's front point, holds
     a surface between the front and the back (more than the visibility tolerance from either): its ray meets that
@@ -339,13 +358,13 @@ class SoftEdgeParams:
     def __post_init__(self):
         if (self.radius < 1 or self.dilate < 0 or not self.fill_sigma >= 0 or self.search < 1
                 or not 0 <= self.snap < 0.5 or self.passes < 1
-                or self.reach < 0 or self.relabel_radius < 0 or not self.through >= 0
+                or self.reach < 0 or self.relabel_radius < 0 or self.middle < 0 or not self.through >= 0
                 or self.relabel_explained < 0 or self.relabel_floor < 0
                 or self.min_separation < 0 or self.back not in ("farthest", "adjacent")
                 or self.separation_where not in ("everywhere", "plain") or self.laplacian < 0
                 or self.laplacian_eps <= 0 or self.laplacian_radius < 1 or not self.laplacian_sure >= 0):
             raise VfxStereoError("soft edges: radius >= 1, dilate >= 0, fill_sigma >= 0, search >= 1, "
-                                 "0 <= snap < 0.5, passes >= 1, reach >= 0, relabel_radius >= 0, "
+                                 "0 <= snap < 0.5, passes >= 1, reach >= 0, relabel_radius >= 0, middle >= 0, "
                                  "relabel_explained >= 0, relabel_floor >= 0, through >= 0, "
                                  "min_separation >= 0, back 'farthest' or 'adjacent', "
                                  "separation_where 'everywhere' or 'plain', laplacian >= 0, laplacian_eps > 0, "
@@ -539,6 +558,8 @@ class SoftEdges:
     estimates: dict | None = None  # per matted pixel: "views", "colour", "separation", "residual" (N,)
     outer: np.ndarray | None = None  # (H, W) bool, near-side pixels matted only for relabel (relabel_radius)
     plain_back: np.ndarray | None = None  # (H, W) bool, the back surface the views see around the pixel is plain
+    middle: dict | None = None  # far-side pixels matted as near-side ones too (H, W): "alpha", "back", "confidence",
+    # and "explained" (2, H, W); see SoftEdgeParams.middle
 
 
 def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, disparity: np.ndarray,
@@ -599,6 +620,9 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
         fmin = np.where(band, fmin, ndimage.minimum_filter(index, size=size))
         outer = ~band & (index - fmin >= jump) & (ndimage.maximum_filter(index, size=size) - index < jump)
         matted = band | outer
+    middle = None  # far-side pixels within ``p.middle`` px of a farther surface: matted as its near side too
+    if p.middle > 0:
+        middle = far_side & (index - ndimage.minimum_filter(index, size=2 * p.middle + 1) >= jump)
     out = volume if inplace else volume.copy()
     info = SoftEdges(band=band, alpha=np.full((h, w), np.nan, np.float32), front=np.full((h, w), -1, np.int32),
                      back=np.full((h, w), -1, np.int32), confidence=np.zeros((h, w), np.float32))
@@ -635,6 +659,32 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
         if matted is not band:
             far_around = np.where(band, far_around, ndimage.minimum_filter(disparity, size=size))
         d_back[rest] = far_around[ys[rest], xs[rest]]
+    n_main = len(ys)
+    outer_px = None if matted is band else ~band[ys, xs]
+    if middle is not None and middle.any():  # their own surface as the front, the nearest behind it as the back
+        my, mx = np.nonzero(middle)
+        mf = index[my, mx].astype(np.int32)
+        mh = nearest_hidden[my, mx]
+        mb = np.maximum(mh, 0).astype(np.int32)
+        md_back = d[mb].astype(np.float64)
+        r2 = np.nonzero(mh < 0)[0]
+        if len(r2):
+            adj_plane = np.empty(len(r2), np.int64)
+            adj_where = np.empty(len(r2), np.int64)
+            _edge_kernels.adjacent_back(my[r2], mx[r2], np.ascontiguousarray(index), mf[r2].astype(np.int64),
+                                        int(jump), int(p.middle), adj_plane, adj_where)
+            mb[r2] = np.maximum(adj_plane, 0)
+            md_back[r2] = disparity.reshape(-1)[np.maximum(adj_where, 0)]
+            good = np.ones(len(my), bool)
+            good[r2[adj_plane < 0]] = False
+            my, mx, mf, mb, md_back = my[good], mx[good], mf[good], mb[good], md_back[good]
+        ys, xs = np.concatenate([ys, my]), np.concatenate([xs, mx])
+        f, b = np.concatenate([f, mf]), np.concatenate([b, mb])
+        d_front = np.concatenate([d_front, disparity[my, mx].astype(np.float64)])
+        d_back = np.concatenate([d_back, md_back])
+        if outer_px is not None:
+            outer_px = np.concatenate([outer_px, np.zeros(len(my), bool)])
+    extra = np.arange(len(ys)) >= n_main
     # the backgrounds, one image per back plane in use
     K = views.shape[0]
     N = len(ys)
@@ -658,7 +708,6 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     # holding them all measured 0.17 GiB more at the peak at 4096x2160 x 64 planes)
     grown = grown_zbuffers(views, warper, disparity, p.dilate)
     back_planes = np.unique(b)
-    outer_px = None if matted is band else ~band[ys, xs]
     known = np.ones(N, bool)  # an outer pixel's background: plain where the views see it around the pixel
     gated = p.min_separation > 0 and p.separation_where == "plain"
     plain_bg = np.ones(N, bool)  # a pixel's background plain around it (``separation_where``, SoftEdges.plain_back)
@@ -733,14 +782,15 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     # (K = 5), 24.7 to 29.6 (K = 2).
     if (slot[f] < 0).any() or (slot[b] < 0).any():
         raise VfxStereoError("soften_edges: an edge lies on a plane the volume does not hold")
-    wr = slice(None) if outer_px is None else ~outer_px  # the band's pixels: the outer pixels' cells stay
+    wr = ~extra if outer_px is None else ~outer_px & ~extra  # the band's pixels: the outer pixels' cells stay
     I0 = plate[ys, xs]
     _write_band(out, ys[wr], xs[wr], f[wr], b[wr], alpha[wr], I0[wr], B[reference][wr], slot, held,
                 max(1.0, float(plate.max())))
-    info.alpha[ys, xs] = alpha
-    info.front[ys, xs] = f
-    info.back[ys, xs] = b
-    info.confidence[ys, xs] = var_b
+    mn = slice(0, n_main)
+    info.alpha[ys[mn], xs[mn]] = alpha[mn]
+    info.front[ys[mn], xs[mn]] = f[mn]
+    info.back[ys[mn], xs[mn]] = b[mn]
+    info.confidence[ys[mn], xs[mn]] = var_b[mn]
     # how well the back surface explains the plate, against how consistently the views see it at the front
     others = ok.copy()
     others[reference] = False
@@ -748,12 +798,24 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     e_front = np.where(n_o > 0, (((I - I0[None]) ** 2).sum(axis=2) * others).sum(axis=0) / np.maximum(n_o, 1), np.inf)
     e_back = ((I0 - B[reference]) ** 2).sum(axis=1)
     info.explained = np.full((2, h, w), np.nan, np.float32)
-    info.explained[0, ys, xs] = e_back
-    info.explained[1, ys, xs] = e_front
+    info.explained[0, ys[mn], xs[mn]] = e_back[mn]
+    info.explained[1, ys[mn], xs[mn]] = e_front[mn]
     info.plain_back = np.zeros((h, w), bool)
-    info.plain_back[ys, xs] = plain_bg
-    info.estimates = {"views": a_views, "colour": np.where(have_c, a_colour, np.nan), "separation": sep,
-                      "residual": resid, "prior": prior, "weight": (wv_ + wc_ + p.w_prior).astype(np.float32)}
+    info.plain_back[ys[mn], xs[mn]] = plain_bg[mn]
+    info.estimates = {"views": a_views[mn], "colour": np.where(have_c, a_colour, np.nan)[mn], "separation": sep[mn],
+                      "residual": resid[mn], "prior": prior[mn],
+                      "weight": (wv_ + wc_ + p.w_prior).astype(np.float32)[mn]}
+    if len(ys) > n_main:
+        mx_ = slice(n_main, None)
+        my, mx = ys[mx_], xs[mx_]
+        info.middle = {"alpha": np.full((h, w), np.nan, np.float32), "back": np.full((h, w), -1, np.int32),
+                       "confidence": np.zeros((h, w), np.float32),
+                       "explained": np.full((2, h, w), np.nan, np.float32)}
+        info.middle["alpha"][my, mx] = alpha[mx_]
+        info.middle["back"][my, mx] = b[mx_]
+        info.middle["confidence"][my, mx] = var_b[mx_]
+        info.middle["explained"][0, my, mx] = e_back[mx_]
+        info.middle["explained"][1, my, mx] = e_front[mx_]
     report(progress, "soft-edges", 1, 1)
     return out, info
 
@@ -816,10 +878,14 @@ def soften_edges_passes(volume: np.ndarray, views: np.ndarray, warper, reference
     within = None
     if p.reach > 0:  # the original depth map's edges, grown by reach
         within = ndimage.binary_dilation(_edges(index, _jump_planes(p, warper.disparities)), iterations=p.reach)
+    middle_within = None  # the middle pixels move only within ``p.middle`` px of a farther surface of this map
+    if p.middle > 0:
+        middle_within = index - ndimage.minimum_filter(index, size=2 * p.middle + 1) >= _jump_planes(
+            p, warper.disparities)
     for n in range(p.passes - 1):
         moved_d, moved_i, moved = relabel(disparity, index, info, warper.disparities,
                                           confidence=p.relabel_confidence, explained=p.relabel_explained,
-                                          floor=p.relabel_floor, within=within)
+                                          floor=p.relabel_floor, within=within, middle_within=middle_within)
         if not moved or moved < p.settle * info.band.sum():
             break
         if on_pass is not None:
@@ -954,14 +1020,16 @@ def laplacian_matte(info: SoftEdges, plate: np.ndarray, index: np.ndarray, p: So
 
 def relabel(disparity: np.ndarray, index: np.ndarray, info: SoftEdges, disparities: np.ndarray,
             threshold: float = 0.5, confidence: float = 0.0, explained: float = 0.0,
-            floor: float = 0.0, within: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, int]:
+            floor: float = 0.0, within: np.ndarray | None = None,
+            middle_within: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, int]:
     """The depth map with the near-side band pixels whose alpha is below ``threshold`` moved to their back plane.
 
     A near-side pixel (on the front surface of its edge) whose matte says it is mostly background belongs to
     the surface behind it: the one :func:`soften_edges` composited it over, a plane the depth map has there
     (the nearest hidden cell behind it, or the surface behind it that ``SoftEdgeParams.back`` picks). The outer
-    pixels (``SoftEdges.outer``) count as near-side band pixels here. With ``confidence``, only pixels whose
-    views see backgrounds varying by more than it (``SoftEdges.confidence``, colour^2) move; with
+    pixels (``SoftEdges.outer``) count as near-side band pixels here, and so do the middle pixels
+    (``SoftEdges.middle``, against their own back; with ``middle_within``, only inside it). With ``confidence``,
+    only pixels whose views see backgrounds varying by more than it (``SoftEdges.confidence``, colour^2) move; with
     ``explained``, only pixels whose plate the back surface explains about as well as the views agree on the
     front (``SoftEdges.explained``: ``|I - B|^2 < explained * spread + floor``; see
     :class:`SoftEdgeParams`); with ``within`` (bool, H x W), only pixels inside it. Nothing moves nearer.
@@ -975,6 +1043,19 @@ def relabel(disparity: np.ndarray, index: np.ndarray, info: SoftEdges, dispariti
     if explained > 0 and info.explained is not None:
         eb, ef = np.nan_to_num(info.explained, nan=np.inf)
         move &= eb < explained * ef + floor
+    target = info.back
+    if info.middle is not None:
+        mb = info.middle["back"]
+        mid = (mb >= 0) & (np.nan_to_num(info.middle["alpha"], nan=1.0) < threshold) & (mb < index) & ~move
+        if confidence > 0:
+            mid &= info.middle["confidence"] > confidence
+        if explained > 0:
+            eb, ef = np.nan_to_num(info.middle["explained"], nan=np.inf)
+            mid &= eb < explained * ef + floor
+        if middle_within is not None:
+            mid &= middle_within
+        target = np.where(mid, mb, info.back)
+        move = move | mid
     if within is not None:
         move &= within
     n = int(move.sum())
@@ -982,8 +1063,8 @@ def relabel(disparity: np.ndarray, index: np.ndarray, info: SoftEdges, dispariti
         return disparity, index, 0
     disparity = np.array(disparity, np.float32, copy=True)
     index = np.array(index, copy=True)
-    disparity[move] = np.asarray(disparities, np.float32)[info.back[move]]
-    index[move] = info.back[move]
+    disparity[move] = np.asarray(disparities, np.float32)[target[move]]
+    index[move] = target[move]
     return disparity, index, n
 
 
