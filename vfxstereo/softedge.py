@@ -12,8 +12,9 @@ rig's parallax moving the background (docs/EQUATIONS.md, "What decides soft-edge
 
 and ``sum_k |B_k - mean B|^2`` says how well the views determine it. Where they do not (a flat background, or
 K = 2 with little parallax), a single-view estimate takes over: the foreground colour F sampled from the
-nearest solid foreground pixels and the known background B give ``alpha = (I - B) . (F - B) / |F - B|^2``
-(the colour-line model of sampling matting, e.g. Gastal & Oliveira 2010), trusted by ``|F - B|^2``. Both are
+nearest solid foreground pixels (on a thin structure that has none, its own pixels off its edges) and the known
+background B give ``alpha = (I - B) . (F - B) / |F - B|^2`` (the colour-line model of sampling matting, e.g.
+Gastal & Oliveira 2010), trusted by ``|F - B|^2``. Both are
 blended with the depth map's own 0/1 label as a weak prior.
 
 The background: on each back plane b, a background image made from the views that see its points *clear of
