@@ -1072,26 +1072,25 @@ def relabel(disparity: np.ndarray, index: np.ndarray, info: SoftEdges, dispariti
     :class:`SoftEdgeParams`); with ``within`` (bool, H x W), only pixels inside it. Nothing moves nearer.
     Returns ``(disparity, index, moved)``; the inputs are not modified.
     """
+    def matte_says_back(alpha, back, spread, explains):  # mostly background, and the guards agree
+        m = (back >= 0) & (np.nan_to_num(alpha, nan=1.0) < threshold) & (back < index)
+        if confidence > 0:
+            m &= spread > confidence
+        if explained > 0 and explains is not None:
+            eb, ef = np.nan_to_num(explains, nan=np.inf)
+            m &= eb < explained * ef + floor
+        return m
+
     near = (info.band if info.outer is None else info.band | info.outer)
-    near = near & (info.front >= 0) & (index >= info.front) & (info.back >= 0)
-    move = near & (np.nan_to_num(info.alpha, nan=1.0) < threshold) & (info.back < index)
-    if confidence > 0:
-        move &= info.confidence > confidence
-    if explained > 0 and info.explained is not None:
-        eb, ef = np.nan_to_num(info.explained, nan=np.inf)
-        move &= eb < explained * ef + floor
+    near = near & (info.front >= 0) & (index >= info.front)
+    move = near & matte_says_back(info.alpha, info.back, info.confidence, info.explained)
     target = info.back
     if info.middle is not None:
-        mb = info.middle["back"]
-        mid = (mb >= 0) & (np.nan_to_num(info.middle["alpha"], nan=1.0) < threshold) & (mb < index) & ~move
-        if confidence > 0:
-            mid &= info.middle["confidence"] > confidence
-        if explained > 0:
-            eb, ef = np.nan_to_num(info.middle["explained"], nan=np.inf)
-            mid &= eb < explained * ef + floor
+        mid = ~move & matte_says_back(info.middle["alpha"], info.middle["back"], info.middle["confidence"],
+                                      info.middle["explained"])
         if middle_within is not None:
             mid &= middle_within
-        target = np.where(mid, mb, info.back)
+        target = np.where(mid, info.middle["back"], info.back)
         move = move | mid
     if within is not None:
         move &= within
