@@ -648,7 +648,7 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
         matted = band | outer
     middle = None  # far-side pixels within ``p.middle`` px of a farther surface: matted as its near side too
     if p.middle > 0:
-        middle = far_side & (index - ndimage.minimum_filter(index, size=2 * p.middle + 1) >= jump)
+        middle = far_side & _before_farther(index, p.middle, jump)
     out = volume if inplace else volume.copy()
     info = SoftEdges(band=band, alpha=np.full((h, w), np.nan, np.float32), front=np.full((h, w), -1, np.int32),
                      back=np.full((h, w), -1, np.int32), confidence=np.zeros((h, w), np.float32))
@@ -672,13 +672,10 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     rest = np.nonzero(~far_side[ys, xs] & (nearest_hidden[ys, xs] < 0))[0]  # near-side, no hidden cell behind
     if p.back == "adjacent" and len(rest):  # the surface of the nearest pixel behind, not the farthest one around
         reach = max(p.radius, p.relabel_radius) if matted is not band else p.radius
-        adj_plane = np.empty(len(rest), np.int64)
-        adj_where = np.empty(len(rest), np.int64)
-        _edge_kernels.adjacent_back(ys[rest], xs[rest], np.ascontiguousarray(index), f[rest].astype(np.int64),
-                                    int(jump), int(reach), adj_plane, adj_where)
+        adj_plane, adj_d = _adjacent_back(ys[rest], xs[rest], index, disparity, f[rest], jump, reach)
         found = adj_plane >= 0
         b[rest[found]] = adj_plane[found]
-        d_back[rest[found]] = disparity.reshape(-1)[adj_where[found]]
+        d_back[rest[found]] = adj_d[found]
         rest = rest[~found]  # none in practice: the band's own test found a surface that far behind
     if len(rest):  # the farthest surface around (b is already its plane, fmin)
         far_around = ndimage.minimum_filter(disparity, size=2 * p.radius + 1)
@@ -694,16 +691,9 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
         mb = np.maximum(mh, 0).astype(np.int32)
         md_back = d[mb].astype(np.float64)
         r2 = np.nonzero(mh < 0)[0]
-        if len(r2):
-            adj_plane = np.empty(len(r2), np.int64)
-            adj_where = np.empty(len(r2), np.int64)
-            _edge_kernels.adjacent_back(my[r2], mx[r2], np.ascontiguousarray(index), mf[r2].astype(np.int64),
-                                        int(jump), int(p.middle), adj_plane, adj_where)
-            mb[r2] = np.maximum(adj_plane, 0)
-            md_back[r2] = disparity.reshape(-1)[np.maximum(adj_where, 0)]
-            good = np.ones(len(my), bool)
-            good[r2[adj_plane < 0]] = False
-            my, mx, mf, mb, md_back = my[good], mx[good], mf[good], mb[good], md_back[good]
+        if len(r2):  # always found: ``middle``'s own test looked for a farther pixel in the same square
+            adj_plane, md_back[r2] = _adjacent_back(my[r2], mx[r2], index, disparity, mf[r2], jump, p.middle)
+            mb[r2] = adj_plane
         ys, xs = np.concatenate([ys, my]), np.concatenate([xs, mx])
         f, b = np.concatenate([f, mf]), np.concatenate([b, mb])
         d_front = np.concatenate([d_front, disparity[my, mx].astype(np.float64)])
@@ -917,8 +907,7 @@ def soften_edges_passes(volume: np.ndarray, views: np.ndarray, warper, reference
         within = ndimage.binary_dilation(_edges(index, _jump_planes(p, warper.disparities)), iterations=p.reach)
     middle_within = None  # the middle pixels move only within ``p.middle`` px of a farther surface of this map
     if p.middle > 0:
-        middle_within = index - ndimage.minimum_filter(index, size=2 * p.middle + 1) >= _jump_planes(
-            p, warper.disparities)
+        middle_within = _before_farther(index, p.middle, _jump_planes(p, warper.disparities))
     for n in range(p.passes - 1):
         moved_d, moved_i, moved = relabel(disparity, index, info, warper.disparities,
                                           confidence=p.relabel_confidence, explained=p.relabel_explained,
@@ -1102,6 +1091,26 @@ def relabel(disparity: np.ndarray, index: np.ndarray, info: SoftEdges, dispariti
     disparity[move] = np.asarray(disparities, np.float32)[target[move]]
     index[move] = target[move]
     return disparity, index, n
+
+
+def _before_farther(index: np.ndarray, reach: int, jump: int) -> np.ndarray:
+    """Pixels with a surface at least ``jump`` planes farther within ``reach`` px (a square) of them."""
+    return index - ndimage.minimum_filter(index, size=2 * reach + 1) >= jump
+
+
+def _adjacent_back(ys, xs, index, disparity, fplane, jump: int, reach: int) -> tuple[np.ndarray, np.ndarray]:
+    """The nearest pixel behind each pixel ``(ys, xs)``: its plane (-1: none) and its disparity.
+
+    :func:`vfxstereo._edge_kernels.adjacent_back` for front planes ``fplane``: at least ``jump`` planes behind,
+    within ``reach`` px; the disparity is meaningless where there is none.
+    """
+    from vfxstereo import _edge_kernels
+
+    plane = np.empty(len(ys), np.int64)
+    where = np.empty(len(ys), np.int64)
+    _edge_kernels.adjacent_back(ys, xs, np.ascontiguousarray(index), np.asarray(fplane, np.int64), int(jump),
+                                int(reach), plane, where)
+    return plane, disparity.reshape(-1)[np.maximum(where, 0)]
 
 
 def _jump_planes(p: SoftEdgeParams, disparities: np.ndarray) -> int:
