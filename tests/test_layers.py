@@ -1,5 +1,7 @@
 """The initial volume from a depth map (front surface, hidden layers, view gains) and soft edges."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -191,7 +193,7 @@ def test_soft_edge_settings_that_cannot_work_are_refused():
                 {"reach": -1}, {"relabel_floor": -0.1},
                 {"relabel_radius": -1}, {"middle": -1}, {"min_separation": -0.1}, {"back": "nearest"},
                 {"separation_where": "anywhere"}, {"through": -0.01}, {"through": float("nan")},
-                {"laplacian_sure": -0.1}, {"laplacian_sure": float("nan")}):
+                {"laplacian_sure": -0.1}, {"laplacian_sure": float("nan")}, {"laplacian_free": -1}):
         with pytest.raises(VfxStereoError, match="soft edges"):
             softedge.SoftEdgeParams(**bad)
     assert softedge.SoftEdgeParams().through > 0  # on by default
@@ -721,6 +723,48 @@ def test_the_laplacian_step_solves_each_group_of_front_planes_on_its_own(rng):
                                                                                snap=0.0, laplacian_groups=False),
                                    jump=2)
     np.testing.assert_array_equal(off, one_field)
+
+
+def _eroded_edge_case(rng, h=14, w=16):
+    """A soft edge (alpha ramping from 0 at column 5 to 1 at column 11) whose depth map put the jump two columns too
+    far into the front: plane 3 from column 10 on, plane 0 before. The matted strip is columns 4-13: the near side
+    (10-13) with confident estimates of 1, the far side (4-9) with the depth map's label alone (0, the weight of
+    ``w_prior``)."""
+    true_alpha = np.clip((np.arange(w) - 5.0) / 6.0, 0, 1)[None].repeat(h, 0)
+    fg, bg = np.array([0.8, 0.3, 0.1]), np.array([0.1, 0.4, 0.7])
+    plate = (true_alpha[..., None] * fg + (1 - true_alpha[..., None]) * bg) ** 2  # linear light
+    plate = (plate + 0.01 * rng.random((h, w, 3))).astype(np.float32)
+    col = np.arange(w)[None].repeat(h, 0)
+    matted = (col >= 4) & (col < 14)
+    index = np.where(col >= 10, 3, 0)
+    est = np.where(col >= 10, 1.0, 0.0)
+    info = _matted(matted, est, 3, np.where(col >= 10, 1.0, softedge.SoftEdgeParams().w_prior)[matted])
+    return plate, index, info, true_alpha, col
+
+
+def test_the_laplacian_step_leaves_far_side_pixels_beside_a_jump_that_only_the_label_places_to_the_colour_lines(rng):
+    """Far-side pixels within ``laplacian_free`` px of the jump whose estimate is the depth map's label alone keep
+    ``LAPLACIAN_FREE_WEIGHT`` of their data weight (here columns 7-9; columns 4-6 are farther from the jump, 10-13
+    on the near side), against a dense solve of exactly that; their alpha then follows the colour lines to the
+    eroded part of the edge (true alpha 0.33-0.67) instead of the label's 0."""
+    plate, index, info, true_alpha, col = _eroded_edge_case(rng)
+    p = softedge.SoftEdgeParams(laplacian=0.5, laplacian_eps=1e-4, snap=0.0)
+    assert p.laplacian_free == 2  # the default
+    ours = softedge.laplacian_matte(info, plate, index, p, jump=1)
+    L = _levin_laplacian(np.sqrt(plate.astype(np.float64)), 1e-4)
+    u = info.band.ravel()
+    c = col.ravel()[u]
+    w = info.estimates["weight"].astype(np.float64)
+    lam = 0.5 * np.clip(w / np.median(w), 0.1, 10) * np.where((c >= 7) & (c <= 9), softedge.LAPLACIAN_FREE_WEIGHT, 1)
+    known = (col.ravel() >= 14).astype(np.float64)[~u]  # outside the strip: 1 right of it, on plane 3's side
+    ref = np.clip(np.linalg.solve(L[np.ix_(u, u)] + np.diag(lam),
+                                  lam * info.alpha.ravel()[u] - L[np.ix_(u, ~u)] @ known), 0, 1)
+    assert np.abs(ours - ref).max() < 1e-3, np.abs(ours - ref).max()
+    off = softedge.laplacian_matte(info, plate, index, replace(p, laplacian_free=0), jump=1)
+    eroded = (c >= 7) & (c <= 9)
+    truth = true_alpha.ravel()[u]
+    err, err_off = np.abs(ours - truth)[eroded].mean(), np.abs(off - truth)[eroded].mean()
+    assert err < 0.5 * err_off, (err, err_off)  # measured 0.08 and 0.34
 
 
 def _spill_case(rng, h=12, w=16):
