@@ -604,12 +604,18 @@ def _levin_laplacian(image: np.ndarray, eps: float) -> np.ndarray:
     return L
 
 
-def _laplacian_case(rng, h=14, w=16):
-    """A soft edge on a small image: colours on a line between two colours, the matted pixels a vertical strip."""
+def _soft_ramp(rng, h, w):
+    """A plate whose alpha ramps from 0 at column 5 to 1 at column 11 between two colours (linear light, a little
+    noise), and that alpha."""
     true_alpha = np.clip((np.arange(w) - 5.0) / 6.0, 0, 1)[None].repeat(h, 0)
     fg, bg = np.array([0.8, 0.3, 0.1]), np.array([0.1, 0.4, 0.7])
     plate = (true_alpha[..., None] * fg + (1 - true_alpha[..., None]) * bg) ** 2  # linear light
-    plate = (plate + 0.01 * rng.random((h, w, 3))).astype(np.float32)
+    return (plate + 0.01 * rng.random((h, w, 3))).astype(np.float32), true_alpha
+
+
+def _laplacian_case(rng, h=14, w=16):
+    """A soft edge on a small image: colours on a line between two colours, the matted pixels a vertical strip."""
+    plate, true_alpha = _soft_ramp(rng, h, w)
     matted = np.zeros((h, w), bool)
     matted[:, 4:12] = True
     index = np.where(np.arange(w) >= 8, 3, 0)[None].repeat(h, 0)
@@ -726,14 +732,10 @@ def test_the_laplacian_step_solves_each_group_of_front_planes_on_its_own(rng):
 
 
 def _eroded_edge_case(rng, h=14, w=16):
-    """A soft edge (alpha ramping from 0 at column 5 to 1 at column 11) whose depth map put the jump two columns too
-    far into the front: plane 3 from column 10 on, plane 0 before. The matted strip is columns 4-13: the near side
-    (10-13) with confident estimates of 1, the far side (4-9) with the depth map's label alone (0, the weight of
-    ``w_prior``)."""
-    true_alpha = np.clip((np.arange(w) - 5.0) / 6.0, 0, 1)[None].repeat(h, 0)
-    fg, bg = np.array([0.8, 0.3, 0.1]), np.array([0.1, 0.4, 0.7])
-    plate = (true_alpha[..., None] * fg + (1 - true_alpha[..., None]) * bg) ** 2  # linear light
-    plate = (plate + 0.01 * rng.random((h, w, 3))).astype(np.float32)
+    """The soft ramp of :func:`_soft_ramp` with the depth map's jump two columns too far into the front: plane 3
+    from column 10 on, plane 0 before. The matted strip is columns 4-13: the near side (10-13) with confident
+    estimates of 1, the far side (4-9) with the depth map's label alone (0, the weight of ``w_prior``)."""
+    plate, true_alpha = _soft_ramp(rng, h, w)
     col = np.arange(w)[None].repeat(h, 0)
     matted = (col >= 4) & (col < 14)
     index = np.where(col >= 10, 3, 0)

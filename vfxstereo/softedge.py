@@ -1013,8 +1013,9 @@ def laplacian_matte(info: SoftEdges, plate: np.ndarray, index: np.ndarray, p: So
         return alpha.astype(np.float32)
     weight = np.asarray(info.estimates["weight"], np.float64)
     lam = p.laplacian * np.clip(weight / np.median(weight), 0.1, 10.0)
+    far = info.front[ys, xs] > index[ys, xs]  # the far side of its edge: the depth map labels it clear
     if p.laplacian_free > 0:  # far-side pixels beside a jump that only the depth map's label places
-        bare = (weight < 2 * p.w_prior) & (info.front[ys, xs] > index[ys, xs])
+        bare = (weight < 2 * p.w_prior) & far
         edges = _edges(index, max(jump, 1))
         if edges.any():  # (with none, the distance transform would measure from the frame's corner)
             beside = ndimage.distance_transform_edt(~edges)[ys, xs] <= p.laplacian_free
@@ -1072,7 +1073,6 @@ def laplacian_matte(info: SoftEdges, plate: np.ndarray, index: np.ndarray, p: So
     if p.laplacian_sure > 0:  # pixels the views settle keep their estimate: clear on the far side, solid on the near
         a_v = np.asarray(info.estimates["views"])
         sure = (info.confidence[ys, xs] >= p.laplacian_sure) & (alpha == np.round(a_v))
-        far = info.front[ys, xs] > index[ys, xs]
         out[sure & far & (a_v <= p.snap)] = 0.0
         out[sure & ~far & (a_v >= 1.0 - p.snap)] = 1.0
     return np.where(out < p.snap, 0.0, np.where(out > 1.0 - p.snap, 1.0, out)).astype(np.float32)
