@@ -15,7 +15,8 @@ cones half size, the 27 half-size 2005/2006 scenes). Per set, side by side in on
 Planes: the GT's range plus 2 published px each side, one published px apart (``1 / eval_steps`` px per view
 step). Scores: bad pixels ``|d - gt| * eval_steps > 1`` outside ``border`` where the GT is known (undecided
 counts as bad), the same near depth discontinuities (GT jumps of more than 2 published px, dilated 4 px),
-time and the peak resident memory of the process that solved (each solve runs in a fresh process).
+split into too near (foreground fattening) and too far, time and the peak resident memory of the process that
+solved (each solve runs in a fresh process).
 
 **Held-out view** (the paper's own claim): our default solves without the view just right of the reference,
 renders the stack at that view's position (what no layer covers completed from the nearest covered pixel) and
@@ -102,7 +103,12 @@ def score(d: np.ndarray, gt: np.ndarray, eval_steps: int, border: int) -> dict:
     with np.errstate(invalid="ignore"):
         bad = scored & ~(np.abs(d - gt) * eval_steps <= 1.0)
     disc = scored & discontinuities(gt, eval_steps)
-    return {"bad": 100.0 * bad.sum() / scored.sum(), "disc": 100.0 * (bad & disc).sum() / max(disc.sum(), 1),
+    n = max(disc.sum(), 1)
+    with np.errstate(invalid="ignore"):
+        near = bad & disc & (d > gt)  # the nearer surface spread over the farther one: foreground fattening
+        far = bad & disc & (d < gt)
+    return {"bad": 100.0 * bad.sum() / scored.sum(), "disc": 100.0 * (bad & disc).sum() / n,
+            "disc_near": 100.0 * near.sum() / n, "disc_far": 100.0 * far.sum() / n,
             "bad_mask": bad, "scored": scored}
 
 
@@ -190,8 +196,8 @@ def _job(kind: str, name: str, quick: bool, preset: str | None = None, overrides
     out["seconds"] = time.perf_counter() - t0
     out["peak_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
     s = score(d, gt, es, border)
-    out.update(bad=s["bad"], disc=s["disc"], note=note, planes=len(planes), views=len(views),
-               shape=gt.shape)
+    out.update(bad=s["bad"], disc=s["disc"], disc_near=s["disc_near"], disc_far=s["disc_far"], note=note,
+               planes=len(planes), views=len(views), shape=gt.shape)
     if name in FIGURE_SETS and kind in ("ours", "sgbm"):
         out["figure"] = str(error_map(name, kind, views[ref], gt, d, s, quick))
     return out
@@ -268,6 +274,10 @@ def tables(names, kinds, by, quick) -> str:
         v = r.get(key)
         return "" if v is None else fmt.format(v)
 
+    def side(kind, name):  # the disc column's bad pixels split: too near / too far
+        near, far = cell(kind, name, "disc_near", "{:.1f}"), cell(kind, name, "disc_far", "{:.1f}")
+        return f"{near} / {far}" if near and far and near != "failed" else ""
+
     rows = []
     for n in names:
         o, s = by.get(("ours", n), {}), by.get(("sgbm", n), {})
@@ -277,13 +287,14 @@ def tables(names, kinds, by, quick) -> str:
                      cell("paper", n, "bad") + (f" ({by[('paper', n)]['note']})"
                                                 if by.get(("paper", n), {}).get("note") else ""),
                      cell("sgbm", n, "bad"), f"{ratio:.2f}", cell("ours", n, "disc"), cell("sgbm", n, "disc"),
+                     side("ours", n), side("sgbm", n),
                      cell("heldout_ours", n, "psnr"), cell("heldout_sgbm", n, "psnr"),
                      cell("ours", n, "seconds", "{:.1f}"), cell("sgbm", n, "seconds", "{:.2f}"),
                      cell("ours", n, "peak_mb", "{:.0f}")])
     table = common.markdown_table(
         ["set", "K", "size", "D", "ours bad %", "ours pair bad %", "paper bad %", "SGBM bad %", "ours / SGBM",
-         "ours disc %", "SGBM disc %", "held-out PSNR ours", "held-out PSNR SGBM warp", "ours s", "SGBM s",
-         "ours peak MB"], rows)
+         "ours disc %", "SGBM disc %", "ours disc near / far %", "SGBM disc near / far %", "held-out PSNR ours",
+         "held-out PSNR SGBM warp", "ours s", "SGBM s", "ours peak MB"], rows)
 
     def mean(kind, key):
         v = [by[(kind, n)][key] for n in names if key in by.get((kind, n), {})]
@@ -297,13 +308,18 @@ def tables(names, kinds, by, quick) -> str:
         f"Mean bad %: ours {mean('ours', 'bad'):.2f} (K views), {mean('pair', 'bad'):.2f} (pair), paper "
         f"{mean('paper', 'bad'):.2f}, SGBM {mean('sgbm', 'bad'):.2f}. Ours / SGBM: mean "
         f"{np.mean(ratios):.3f}, worst {np.max(ratios):.2f} (target: <= 1 on every set, <= 0.7 on average); "
+        f"near depth jumps, too near / too far: ours {mean('ours', 'disc_near'):.2f} / "
+        f"{mean('ours', 'disc_far'):.2f}, "
+        f"SGBM {mean('sgbm', 'disc_near'):.2f} / {mean('sgbm', 'disc_far'):.2f} %; "
         f"sets where ours loses to SGBM: {', '.join(worse) or 'none'}. All views vs the pair: "
         f"{mean('ours', 'bad'):.2f} vs {mean('pair', 'bad'):.2f} % bad. Held-out view PSNR: ours "
         f"{mean('heldout_ours', 'psnr'):.2f} dB, SGBM warp {mean('heldout_sgbm', 'psnr'):.2f} dB.")
     notes = [
         "Bad pixel: |d - gt| * eval_steps > 1 (1 px of the published two-frame pair), outside the set's border, "
         "where the GT is known; ours and SGBM decide every pixel. disc: the same near GT depth jumps of more than "
-        f"{DISC_JUMP:g} published px (dilated {DISC_DILATE} px).",
+        f"{DISC_JUMP:g} published px (dilated {DISC_DILATE} px); near / far: of those pixels, the bad ones whose "
+        "disparity is above the GT's (a nearer surface spread over a farther one: foreground fattening) and below "
+        "it (a farther surface eating into a nearer one).",
         "paper: " + (f"planes coarsened where H x W x D > {PAPER_LIMITS['max_cells']:.0e} (step shown), "
                      f"{PAPER_LIMITS['refine_iterations']} refinement iterations (the preset's own: 100)."),
         "Peak MB: the resident peak of the fresh process that solved (Python, numpy and numba included).",
