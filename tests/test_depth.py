@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from vfxstereo import depth, depth_plate, samples
+from vfxstereo.errors import VfxStereoError
 from vfxstereo.geometry import Camera
 from vfxstereo.homography import rectified_rig_matrices
 from vfxstereo.warp import Warper
@@ -283,13 +284,14 @@ def _fattened(gt: np.ndarray, px: int) -> np.ndarray:
     return ndimage.grey_dilation(gt, size=(2 * px + 1, 2 * px + 1)).astype(np.float32)
 
 
-def test_edge_refinement_kernel_matches_its_numpy_reference():
+@pytest.mark.parametrize("zbuffer, forward", [("confident", True), ("sided", True), ("sided", False)])
+def test_edge_refinement_kernel_matches_its_numpy_reference(zbuffer, forward):
     from vfxstereo import matching
 
     s = _square_scene(shape=(30, 44))
     gt = s.gt_disparity(0.5).astype(np.float32)
     warper = Warper(s.camera, s.disparities, s.shape)
-    config = depth.DepthConfig(edge_refine=True, edge_support=2)
+    config = depth.DepthConfig(edge_refine=True, edge_support=2, edge_zbuffer=zbuffer, edge_forward=forward)
     prep = matching.prepare(np.asarray(s.views, np.float32), config.matching)
     start = _fattened(gt, 2)
     start[::7, ::5] -= 1.0  # some texture in the map: candidates are means, not two levels
@@ -299,6 +301,40 @@ def test_edge_refinement_kernel_matches_its_numpy_reference():
     same = state == ref_state
     assert same.mean() > 0.995  # the kernel reads its cost from tables, the reference computes it
     np.testing.assert_allclose(out[same], ref[same], atol=1e-4)
+
+
+def test_sided_edge_refinement_judges_the_back_only_by_the_views_on_its_side():
+    """A stereo pair (the square scene's reference and its right neighbour). From the exact map, the "confident"
+    z-buffer (the front's edge pixels left out) lets the right view judge the background strip that the square
+    hides from it, and the square's candidate wins there: the edge fattens. "sided" leaves that view out (the
+    square lies towards its offset) and changes nothing. From a map fattened by 2 px, "sided" puts back every
+    pixel a view can judge; what stays wrong is the strip no view sees (state 4), for step 6 to decide."""
+    from vfxstereo import matching
+
+    s = _square_scene()
+    gt = s.gt_disparity(0.5).astype(np.float32)
+    views = np.asarray(s.views, np.float32)[2:4]
+    warper = Warper(Camera.from_positions(np.asarray(s.camera.positions)[2:4], 0), s.disparities, s.shape)
+    truth = gt > 3
+    moved = {}
+    for zbuffer in ("confident", "sided"):
+        config = depth.DepthConfig(edge_refine=True, edge_zbuffer=zbuffer)
+        prep = matching.prepare(views, config.matching)
+        out, state = depth.refine_edges(prep, warper, 0, gt, config)
+        moved[zbuffer] = int(((out > 3) ^ truth).sum())
+    assert moved["confident"] > 5 and moved["sided"] == 0
+    start = _fattened(gt, 2)
+    config = depth.DepthConfig(edge_refine=True, edge_zbuffer="sided", edge_forward=False, edge_margin=0.05)
+    out, state = depth.refine_edges(matching.prepare(views, config.matching), warper, 0, start, config)
+    wrong_before, wrong_after = (start > 3) ^ truth, (out > 3) ^ truth
+    assert wrong_after.sum() < 0.4 * wrong_before.sum()
+    assert np.all(state[wrong_after] == 4)  # left where no view sees the back candidate
+    assert np.all(out <= start)  # front pixels only move back
+
+
+def test_edge_refinement_refuses_an_unknown_visibility():
+    with pytest.raises(VfxStereoError, match="edge_zbuffer is one of confident, all, sided"):
+        depth.DepthConfig(edge_refine=True, edge_zbuffer="both")
 
 
 @pytest.mark.parametrize("px", [2, 3])

@@ -465,7 +465,7 @@ def _support_cost(cref, vref, cview, vview, y, x, sx, sy, weights, R, rho_census
 
 @njit(cache=True, parallel=True, nogil=True)
 def edge_refine(disparity, r, jump, cref, vref, cviews, vviews, offsets, zbufs, tol, rho_census, rho_ad, R,
-                gamma_c, gamma_s, margin, out, state):
+                gamma_c, gamma_s, margin, sided, forward, out, state):
     """Re-decide each depth-edge pixel between its front and back candidate (:func:`edge_candidates`).
 
     For each view m (``cviews[m]``, ``vviews[m]`` at ``offsets[m]`` view steps from the reference, its z-buffer
@@ -475,6 +475,11 @@ def edge_refine(disparity, r, jump, cref, vref, cviews, vviews, offsets, zbufs, 
     costs are averaged over those views. The pixel moves to the other side's candidate when that costs less by
     more than ``margin``; where no view sees the back candidate it is kept. ``state``: 0 no edge, 1 kept,
     2 moved back, 3 moved forward, 4 kept with no view seeing the back candidate.
+
+    ``sided``: the views that see the back candidate are those on the side away from the front surface instead
+    (``zbufs`` unread): a surface at disparity ``front`` hides the pixel's back point in view m from the reference
+    pixel ``(front - back) offsets[m]`` away, so a view whose offset points towards the neighbourhood's front
+    pixels (their centroid) may not see it. ``forward`` False: back pixels are not re-decided (state 0).
     """
     H, W = disparity.shape
     M = cviews.shape[0]
@@ -487,7 +492,22 @@ def edge_refine(disparity, r, jump, cref, vref, cviews, vviews, offsets, zbufs, 
             is_edge, front, back, mid = edge_candidates(disparity, y, x, r, jump)
             if not is_edge:
                 continue
+            is_front = disparity[y, x] >= mid
+            if not forward and not is_front:
+                continue
             state[y, x] = 1
+            cx = 0.0
+            cy = 0.0
+            if sided:  # towards the front surface: the centroid of the neighbourhood's front pixels
+                nf = 0
+                for b in range(max(y - r, 0), min(y + r + 1, H)):
+                    for a in range(max(x - r, 0), min(x + r + 1, W)):
+                        if disparity[b, a] >= mid:
+                            cx += a - x
+                            cy += b - y
+                            nf += 1
+                cx /= nf
+                cy /= nf
             for j in range(-R, R + 1):
                 for i in range(-R, R + 1):
                     b = min(max(y + j, 0), H - 1)
@@ -504,7 +524,10 @@ def edge_refine(disparity, r, jump, cref, vref, cviews, vviews, offsets, zbufs, 
                 vb = y - back * offsets[m, 1]
                 if not (ub >= 0.0 and ub <= W - 1 and vb >= 0.0 and vb <= H - 1):
                     continue
-                if zbufs[m, min(int(vb + 0.5), H - 1), min(int(ub + 0.5), W - 1)] > back + tol:
+                if sided:
+                    if offsets[m, 0] * cx + offsets[m, 1] * cy > 0.0:
+                        continue
+                elif zbufs[m, min(int(vb + 0.5), H - 1), min(int(ub + 0.5), W - 1)] > back + tol:
                     continue
                 eb = _support_cost(cref, vref, cviews[m], vviews[m], y, x, back * offsets[m, 0],
                                    back * offsets[m, 1], weights, R, rho_census, rho_ad)
@@ -518,7 +541,6 @@ def edge_refine(disparity, r, jump, cref, vref, cviews, vviews, offsets, zbufs, 
             if n == 0:
                 state[y, x] = 4
                 continue
-            is_front = disparity[y, x] >= mid
             if is_front and cb + n * margin < cf:
                 out[y, x] = back
                 state[y, x] = 2
