@@ -45,8 +45,11 @@ structures brought back, plain joins, edge ownership, grille cells, whole boards
 :mod:`vfxstereo.depth_plate`.
 
 Measured (``benchmarks/middlebury.py``, all 31 sets, one published px apart, the GT's view as reference):
-0.47x OpenCV SGBM's bad pixels on average (9.4 % against 19.5 %), at most 0.88x (Midd1). Per set: tsukuba
-3.7 %, venus 1.4 %, teddy 5.3 %, cones 10.3 %, Art 11.0 %, Midd1 25.5 % (before step 10, session 26: 9.5 %,
+0.47x OpenCV SGBM's bad pixels on average (9.21 % against 19.50 % in session 45; from the classic pair alone
+14.33 %), at most 0.83x. Near the depth jumps, 20.6 % of the pixels too near (foreground fattening) and 5.5 %
+too far, SGBM 29.5 % and 10.8 %: fattening is four fifths of the edge error, mostly a rim of 1-2 px on either
+side of the front (the window, not one-sided occlusion). Earlier: 9.4 %, at most 0.88x (Midd1); per set
+tsukuba 3.7 %, venus 1.4 %, teddy 5.3 %, cones 10.3 %, Art 11.0 %, Midd1 25.5 % (before step 10, session 26: 9.5 %,
 0.49x; tsukuba 3.9, teddy 5.4, cones 10.4, Art 11.3, Midd1 25.7). (With the box window, until session
 20: 9.8 %, 0.50x; from the classic pair alone 14.9 %, 18.1 % before the rematch check and the frame-edge step;
 held-out view PSNR 37.8 dB against the SGBM warp's 34.2.)
@@ -297,7 +300,9 @@ class DepthConfig:
     "rematch"``) it helps at K = 5 (mean 26.88 / 19.09 -> 27.19 / 19.27 dB frame / band, no scene worse by
     more than 0.08 dB) but not at K = 2 (24.75 / 17.25 -> 24.77 / 17.26: trolls_art +1.3 / +1.0, the plain
     walls and tassels_room -0.2 to -0.7). Most of the remaining "fattening" on those scenes is hair below
-    alpha 0.5 and half-occluded strips wider than the neighbourhood, which this step does not reach."""
+    alpha 0.5 and half-occluded strips wider than the neighbourhood, which this step does not reach. Re-measured
+    since (all later steps in place): session 44, -0.80 / -0.40 dB on the tuning rows; with
+    ``edge_zbuffer="sided"``, see there."""
     edge_radius: int = 4
     """Half-side of the neighbourhood whose disparity range marks a depth edge and gives the two candidates."""
     edge_jump: float = 1.5
@@ -322,7 +327,14 @@ class DepthConfig:
     also judged by the views its true front hides, and loses to the front candidate: measured on the final maps
     of four Middlebury sets (tsukuba, teddy, Art, Reindeer) and of the 72 z-key scene/rig pairs, default settings,
     it moved 18.0k / 384k pixels, put 4.1k / 75k of them right and 12.3k / 212k wrong. "sided" with
-    ``edge_forward=False`` and ``edge_margin=0.05``: 5.5k / 41k moved, 3.3k / 27k put right, 0.3k / 5.8k wrong."""
+    ``edge_forward=False`` and ``edge_margin=0.05``: 5.5k / 41k moved, 3.3k / 27k put right, 0.3k / 5.8k wrong.
+    In the pipeline (sessions 45-46, depth recomputed, the same settings) it is still not worth turning on: Middlebury
+    9.21 -> 9.04 % bad from all views (28 of 31 sets better, too near at the jumps 20.6 -> 19.3 %) but 14.33 ->
+    14.69 % from the pair (Bowling1 16.1 -> 28.6 %: a few pixels moved at a cloth edge and the later steps carried
+    the change across its plain white middle); z-key, all 362 rows, +0.05 / -0.02 dB frame / band, rows losing to
+    the SGBM key 11 / 7 -> 12 / 10 (shelf_grille K = 2 -1.9 / -3.5, doll_plaster K = 5 -1.9, boards_rocks K = 5
+    -1.3; fence_dof +1.1 to +1.4, sheep_duck_wall K = 2 +2.4 frame). Steps 9-18 and the soft edges are tuned to
+    maps without it."""
     edge_forward: bool = True
     """Step 8 re-decides the back side of an edge too (False: only the front side, which fattening widens)."""
     edge_passes: int = 1
