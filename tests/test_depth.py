@@ -963,6 +963,59 @@ def test_colour_reopening_runs_in_the_stage_by_default_and_its_settings_are_chec
             depth.DepthConfig(**bad)
 
 
+def test_rim_colours_send_a_fattened_rim_of_the_walls_colour_back_one_pixel_a_pass():
+    colour, truth, fat = _fattened_board()
+    fat = fat.copy()
+    fat[56:60, 38:42] = truth[56:60, 38:42]  # no island: only the grown rim
+    colour[10:14, 27:29] = (0.9, 0.5, 0.1)  # a piece of the board's colour in the rim: it keeps the board's depth
+    one, moved1 = depth_plate.rim_colours(fat, colour, passes=1)
+    two, moved2 = depth_plate.rim_colours(fat, colour, passes=2)
+    np.testing.assert_array_equal(np.nonzero(moved1.any(axis=0))[0], [27])  # the rim's outer column...
+    np.testing.assert_array_equal(np.nonzero(moved2.any(axis=0))[0], [27, 28])  # ...then the next
+    assert not moved2[10:14].any() and moved2.sum() == 2 * 70 - 8
+    np.testing.assert_array_equal(two[moved2], 2.0)  # the back's depth, never nearer
+    assert np.all(two <= fat)
+    # the board's true edge stays where the rim is gone, and the board's own dark spot stays
+    clean = truth.copy()
+    out, moved = depth_plate.rim_colours(clean, colour)
+    assert not moved.any()
+
+
+@pytest.mark.parametrize("ratio, passes", [(1.5, 2), (1.0, 3), (3.0, 1)])
+def test_rim_colours_kernel_matches_its_numpy_reference(ratio, passes):
+    from scipy import ndimage
+
+    rng = np.random.default_rng(13)
+    h, w = 48, 64
+    truth = np.round(ndimage.zoom(rng.uniform(0, 8, (6, 8)), 8, order=0) * 2) / 2  # blocks, 0.5 apart
+    d = ndimage.grey_dilation(truth, size=(5, 5)).astype(np.float32)  # fattened 2 px
+    palette = rng.uniform(0, 1, (17, 3))
+    colour = (palette[(2 * truth).astype(int)] + rng.uniform(-0.1, 0.1, (h, w, 3))).astype(np.float32)
+    out, moved = depth_plate.rim_colours(d, colour, ratio=ratio, passes=passes)
+    ref, ref_moved = depth_plate.rim_colours_reference(d, colour, ratio=ratio, passes=passes)
+    assert ref_moved.sum() > 10  # the case moves pixels
+    np.testing.assert_array_equal(out, ref)
+    np.testing.assert_array_equal(moved, ref_moved)
+
+
+def test_rim_colours_run_last_in_the_stage_when_asked_and_their_settings_are_checked():
+    from dataclasses import replace
+
+    from vfxstereo.layers import plane_index
+
+    views, warper, ref, gt, gaps, board = _gapped_scene(plain_background=False)
+    assert depth.DepthConfig().rim_ratio == 0
+    off = depth.robust_depth(views, warper, ref)
+    on = depth.robust_depth(views, warper, ref, config=replace(depth.DepthConfig(), rim_ratio=1.0))
+    assert "rims" in on.timings and "rims" not in off.timings
+    assert np.all(on.disparity <= off.disparity)  # pixels only move back
+    np.testing.assert_array_equal(on.index, plane_index(on.disparity, warper.disparities))
+    for bad in ({"rim_ratio": -1.0}, {"rim_passes": -1}, {"rim_radius": 0}, {"rim_tolerance": 0.0},
+                {"rim_jump": 1.0, "rim_tolerance": 0.5}):
+        with pytest.raises(VfxStereoError):
+            depth.DepthConfig(**bad)
+
+
 def _bars_over_texture(K=5):
     """Thin grey bars (1.6 px, 30 px apart) at d = 12 over a finely textured wall at d = 1: the census window
     and the SGM paths give the bars the wall's depth."""

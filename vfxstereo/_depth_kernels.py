@@ -872,3 +872,53 @@ def edge_ridges(d, flat, radius, share, b0, b1, jump, far, ridge, side, behind):
                 ridge[y, x] = True
                 side[y, x] = s
                 behind[y, x] = np.median(vals[:nb])
+
+
+@njit(cache=True, parallel=True, nogil=True)
+def rim_colours(disparity, lo, edge, colour, jump, tol, ratio, r, least, out):
+    """One pass of step 19 (:func:`vfxstereo.depth_plate.rim_colours`).
+
+    ``out`` is ``disparity`` with each near-side pixel of a jump (``disparity - lo >= jump``, ``lo`` its 3 x 3
+    minimum) set to ``lo`` where its colour is nearer the mean colour of the back side than of the front side by
+    more than ``ratio``.
+
+    The sides: the pixels of the (2r+1)^2 window off the edges (``edge`` False) within ``tol`` of the pixel's
+    disparity (front) and of ``lo`` (back); each needs ``least`` pixels, or the pixel stays.
+    """
+    H, W = disparity.shape
+    C = colour.shape[2]
+    for y in prange(H):
+        sf = np.empty(C, np.float64)
+        sb = np.empty(C, np.float64)
+        for x in range(W):
+            f = disparity[y, x]
+            b = lo[y, x]
+            out[y, x] = f
+            if not f - b >= jump:
+                continue
+            sf[:] = 0.0
+            sb[:] = 0.0
+            nf = 0
+            nb = 0
+            for yy in range(max(y - r, 0), min(y + r + 1, H)):
+                for xx in range(max(x - r, 0), min(x + r + 1, W)):
+                    if edge[yy, xx]:
+                        continue
+                    dq = disparity[yy, xx]
+                    if abs(dq - f) <= tol:
+                        nf += 1
+                        for c in range(C):
+                            sf[c] += colour[yy, xx, c]
+                    elif abs(dq - b) <= tol:
+                        nb += 1
+                        for c in range(C):
+                            sb[c] += colour[yy, xx, c]
+            if nf < least or nb < least:
+                continue
+            ef = 0.0
+            eb = 0.0
+            for c in range(C):
+                ef += (colour[y, x, c] - sf[c] / nf) ** 2
+                eb += (colour[y, x, c] - sb[c] / nb) ** 2
+            if ratio * ratio * eb < ef:
+                out[y, x] = b

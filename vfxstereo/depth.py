@@ -834,6 +834,19 @@ class DepthConfig:
     """Step 18's lines stand out from the rows above and below by more than this (sRGB, 0-1, some channel)."""
     rails_pieces: int = 4
     """Step 18 moves a line only where the map has it nearer at this many places or more."""
+    rim_ratio: float = 0.0
+    """Step 19 (:func:`vfxstereo.depth_plate.rim_colours`; 0: off): a pixel on the near side of a depth jump
+    goes to the back where its colour (the plate over its mean colour) is nearer the back side's mean than the
+    front side's by more than this ratio of distances. See the module docstring of :mod:`vfxstereo.depth_plate`."""
+    rim_passes: int = 2
+    """Rounds of step 19 (a rim 2 px wide goes in two)."""
+    rim_radius: int = 3
+    """Half-side of step 19's window, px."""
+    rim_jump: float = 1.5
+    """Step 19's depth jumps: a 3 x 3 disparity range of at least this (px per view step)."""
+    rim_tolerance: float = 0.5
+    """Step 19's sides: the window's pixels within this of the front's and of the back's disparity (below half of
+    ``rim_jump``)."""
 
     def __post_init__(self):
         if (self.box < 1 or self.paths not in (4, 8) or self.median < 0 or self.visibility_passes < 0
@@ -854,6 +867,10 @@ class DepthConfig:
                                  "guided_eps > 0, rival_jump >= 0, rival_scale > 0, guard_jump >= 0, "
                                  "guard_radius >= 1, 0 < guard_share <= 1, guard_unlike, guard_carry >= 0, "
                                  "0 <= boards_share <= 1, 0 <= boards_far <= 1, rails_contrast >= 0, rails_pieces >= 1")
+        if (self.rim_ratio < 0 or self.rim_passes < 0 or self.rim_radius < 1 or self.rim_tolerance <= 0
+                or not self.rim_jump > 2 * self.rim_tolerance):
+            raise VfxStereoError("depth settings: rim_ratio, rim_passes >= 0, rim_radius >= 1, rim_tolerance > 0, "
+                                 "rim_jump > 2 * rim_tolerance")
         if self.edge_zbuffer not in EDGE_ZBUFFERS:
             raise VfxStereoError(f"depth settings: edge_zbuffer is one of {', '.join(EDGE_ZBUFFERS)}, "
                                  f"got {self.edge_zbuffer!r}")

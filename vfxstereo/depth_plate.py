@@ -203,6 +203,16 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
         t0 = time.perf_counter()
         checked("rails", t0, *level_rails(res.disparity, colour, jump=config.join_jump, contrast=config.rails_contrast,
                                           pieces=config.rails_pieces))
+    if config.rim_ratio > 0 and config.rim_passes > 0:
+        t0 = time.perf_counter()
+        plate = np.asarray(views[reference][..., :3], np.float32)
+        plate = plate / np.maximum(plate.reshape(-1, 3).mean(axis=0), 1e-6)  # the plate's gains weigh no channel
+        rims, moved = rim_colours(res.disparity, plate, ratio=config.rim_ratio, passes=config.rim_passes,
+                                  radius=config.rim_radius, jump=config.rim_jump, tolerance=config.rim_tolerance)
+        if moved.any():
+            res.disparity = rims
+            changed = True
+        res.timings["rims"] = time.perf_counter() - t0
     if changed:  # the planes of the map the steps left, once
         res.index = plane_index(res.disparity, warper.disparities)
     return res
@@ -451,6 +461,68 @@ def reopen_by_colour(disparity: np.ndarray, colour: np.ndarray, *, radius: int =
         keep[np.unique(group[d[ys, xs] < front[group - 1] - jump])] = True
         move &= keep[labels]
     return np.where(move, target, d).astype(np.float32), move
+
+
+def _rim_sides(d: np.ndarray, jump: float) -> tuple[np.ndarray, np.ndarray]:
+    """The 3 x 3 minimum of ``d`` and the pixels at a jump (3 x 3 range >= ``jump``): step 19's inputs."""
+    from scipy import ndimage
+
+    lo = ndimage.minimum_filter(d, size=3, mode="nearest")
+    return lo, ndimage.maximum_filter(d, size=3, mode="nearest") - lo >= jump
+
+
+def rim_colours(disparity: np.ndarray, colour: np.ndarray, *, ratio: float = 1.5, passes: int = 2,
+                radius: int = 3, jump: float = 1.5, tolerance: float = 0.5,
+                least: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """Step 19: the near-side rim of each depth jump goes to the back where its colour is the back's.
+
+    A pixel whose 3 x 3 neighbourhood holds a disparity ``jump`` or more below its own (the near side of a jump)
+    takes that farthest disparity where its colour is nearer the back side's mean colour than the front side's
+    by more than ``ratio`` (distances). The sides: the pixels of the (2 ``radius`` + 1)^2 window that are not at
+    a jump themselves, within ``tolerance`` of the pixel's disparity (front) or of the back's; each needs
+    ``least`` pixels. ``passes`` rounds (a fattened rim 2 px wide goes in two). Pixels only move back.
+    Returns ``(disparity, moved)``.
+    """
+    from vfxstereo import _depth_kernels
+
+    before = np.ascontiguousarray(disparity, np.float32)
+    c = np.ascontiguousarray(colour, np.float32)
+    d = before
+    for _ in range(passes):
+        lo, edge = _rim_sides(d, jump)
+        out = np.empty_like(d)
+        _depth_kernels.rim_colours(d, lo, edge, c, np.float32(jump), np.float32(tolerance), float(ratio),
+                                   int(radius), int(least), out)
+        if np.array_equal(out, d):
+            break
+        d = out
+    return d, d != before
+
+
+def rim_colours_reference(disparity: np.ndarray, colour: np.ndarray, *, ratio: float = 1.5, passes: int = 2,
+                          radius: int = 3, jump: float = 1.5, tolerance: float = 0.5,
+                          least: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """Plain numpy :func:`rim_colours`, the reference its kernel is tested against."""
+    before = np.asarray(disparity, np.float32)
+    c = np.asarray(colour, np.float64)
+    d = before.copy()
+    h, w = d.shape
+    for _ in range(passes):
+        lo, edge = _rim_sides(d, jump)
+        new = d.copy()
+        for y, x in zip(*np.nonzero(d - lo >= jump), strict=True):
+            f, b = d[y, x], lo[y, x]
+            win = (slice(max(y - radius, 0), y + radius + 1), slice(max(x - radius, 0), x + radius + 1))
+            off = ~edge[win]
+            front, back = off & (np.abs(d[win] - f) <= tolerance), off & (np.abs(d[win] - b) <= tolerance)
+            if front.sum() < least or back.sum() < least:
+                continue
+            ef = np.linalg.norm(c[y, x] - c[win][front].mean(axis=0))
+            eb = np.linalg.norm(c[y, x] - c[win][back].mean(axis=0))
+            if ratio * eb < ef:
+                new[y, x] = b
+        d = new
+    return d, d != before
 
 
 THIN_CHUNK = 65536
