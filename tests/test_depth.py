@@ -998,16 +998,16 @@ def test_rim_colours_kernel_matches_its_numpy_reference(ratio, passes):
     np.testing.assert_array_equal(moved, ref_moved)
 
 
-def test_rim_colours_run_last_in_the_stage_when_asked_and_their_settings_are_checked():
+def test_rim_colours_run_last_in_the_stage_by_default_and_their_settings_are_checked():
     from dataclasses import replace
 
     from vfxstereo.layers import plane_index
 
     views, warper, ref, gt, gaps, board = _gapped_scene(plain_background=False)
-    assert depth.DepthConfig().rim_ratio == 0
-    off = depth.robust_depth(views, warper, ref)
-    on = depth.robust_depth(views, warper, ref, config=replace(depth.DepthConfig(), rim_ratio=1.0))
-    assert "rims" in on.timings and "rims" not in off.timings
+    assert depth.DepthConfig().rim_ratio > 0
+    on = depth.robust_depth(views, warper, ref)
+    off = depth.robust_depth(views, warper, ref, config=replace(depth.DepthConfig(), rim_ratio=0.0))
+    assert "rim colours" in on.timings and "rim colours" not in off.timings
     assert np.all(on.disparity <= off.disparity)  # pixels only move back
     np.testing.assert_array_equal(on.index, plane_index(on.disparity, warper.disparities))
     for bad in ({"rim_ratio": -1.0}, {"rim_passes": -1}, {"rim_radius": 0}, {"rim_tolerance": 0.0},

@@ -40,8 +40,8 @@ This stage gives the layered model a dependable front surface instead, from clas
    front and back disparity by a pixelwise cost with colour-adaptive support weights over the views that see
    the back candidate (:func:`refine_edges`), against the foreground fattening of steps 1-3.
 
-Steps 9-18, run once on the whole plate's map after the strips (gaps and colours reopened, thin near
-structures brought back, plain joins, edge ownership, grille cells, whole boards, level rails), are in
+Steps 9-19, run once on the whole plate's map after the strips (gaps and colours reopened, thin near
+structures brought back, plain joins, edge ownership, grille cells, whole boards, level rails, rim colours), are in
 :mod:`vfxstereo.depth_plate`.
 
 Measured (``benchmarks/middlebury.py``, all 31 sets, one published px apart, the GT's view as reference):
@@ -81,7 +81,7 @@ EDGE_ZBUFFERS = ("confident", "all", "sided")
 class DepthConfig:
     """Settings of :func:`robust_depth`.
 
-    The functions of steps 9-18 that the notes below name (``reopen_gaps``, ``reopen_by_colour``, ``join_plain``,
+    The functions of steps 9-19 that the notes below name (``reopen_gaps``, ``reopen_by_colour``, ``join_plain``,
     ``views_confirm``, ...) are in :mod:`vfxstereo.depth_plate`.
     """
 
@@ -834,10 +834,29 @@ class DepthConfig:
     """Step 18's lines stand out from the rows above and below by more than this (sRGB, 0-1, some channel)."""
     rails_pieces: int = 4
     """Step 18 moves a line only where the map has it nearer at this many places or more."""
-    rim_ratio: float = 0.0
+    rim_ratio: float = 3.0
     """Step 19 (:func:`vfxstereo.depth_plate.rim_colours`; 0: off): a pixel on the near side of a depth jump
     goes to the back where its colour (the plate over its mean colour) is nearer the back side's mean than the
-    front side's by more than this ratio of distances. See the module docstring of :mod:`vfxstereo.depth_plate`."""
+    front side's by more than this ratio of distances.
+
+    On since session 46. Chosen on the z-key tuning rows, the depth maps of the head with the step added after them
+    (the step is the stage's last, so this equals the full solve, which gave the same rows to the last digit), frame
+    / band dB against no step (ratio: K = 5; K = 2; pixels moved over the 72 scene/rig maps, put right / put wrong
+    by more than 1 px): 1.0: -0.05 / +0.03; -0.17 / -0.26 (wicker_wall -1.6 to -3.1, tassels_room K = 5 -2.4,
+    shelf_grille K = 2 -3.4 / -4.7; 72k / 9k); 1.5: +0.01 / +0.11; +0.02 / -0.01 (60k / 3.9k); 2.0: +0.06 / +0.15;
+    +0.28 / +0.08 (wicker_wall K = 2 -1.2 / -1.4, tassels_room K = 2 -1.7, hair_shelves K = 5 -1.1; 52k / 2.3k);
+    **3.0**: +0.07 / +0.11; +0.08 / +0.12 (42k / 1.2k; worst scene two_soft_pots K = 5 -0.7 frame; best
+    fur_pillar_monopoly K = 2 +0.4 / +1.0, witch_monster +0.6 / +0.7 at both K, flowers_fence K = 5 +0.7 / +0.5).
+    All 362 rows: 31.50 / 25.19 -> 31.59 / 25.30, the band against the true-depth key -3.82 -> -3.70, rows losing to
+    the SGBM key 11 / 7 -> 10 / 7 (panel_hair_books K = 2, the card at d = 3, turns: -0.25 -> +0.15 dB frame);
+    held-out rows, scored after the choice: +0.09 / +0.11 (K = 5), +0.18 / +0.10 (K = 2), none turning; rows where
+    the later stages end below their initial volume 31 -> 33. The hard key from our map gains more (+0.39 / +0.64
+    and +0.39 / +0.56; with ratio 1.0, +0.55 / +0.83): the soft-edge passes
+    (:attr:`vfxstereo.softedge.SoftEdgeParams.passes`) already send many of these pixels back from the matte, and
+    with a looser ratio the pixels of hair and wicker whose colour is mostly the background's lose the front they
+    need for their partial alpha. Middlebury, depth only, all 31 sets: 9.21 -> 9.13 % bad (0.468x -> 0.464x SGBM's,
+    worst set 0.83x -> 0.82x), the pair 14.33 -> 14.31; near the depth jumps too near 20.6 -> 19.6 %, too far 5.5 ->
+    5.9. At 1920 x 1080, 0.07x the time of step 10."""
     rim_passes: int = 2
     """Rounds of step 19 (a rim 2 px wide goes in two)."""
     rim_radius: int = 3
@@ -925,7 +944,7 @@ class DepthResult:
     """(H, W) float32 the rival-gated map of step 14 (``DepthConfig.cells``), else None."""
     pair: np.ndarray | None = None
     """(H, W) float32 the map of view ``pair_view`` as a reference of its own (step 6's rematch), for step 9 on a
-    stereo pair (``DepthConfig.reopen_pair``); None without the rematch, and once steps 9-18 are done."""
+    stereo pair (``DepthConfig.reopen_pair``); None without the rematch, and once steps 9-19 are done."""
     pair_view: int | None = None
     """The view ``pair`` was solved for (the consistency check's), or None without the rematch."""
 
@@ -1517,7 +1536,7 @@ def robust_depth(views: np.ndarray, warper, reference: int, *, config: DepthConf
     K, h, w = views.shape[:3]
     if not 0 <= reference < K:
         raise VfxStereoError(f"reference view {reference} is not one of the {K} views")
-    from vfxstereo.depth_plate import _reopened  # steps 9-18 (that module imports this one)
+    from vfxstereo.depth_plate import _reopened  # steps 9-19 (that module imports this one)
 
     plan = [(0, h, 0, h)] if keep_volume else strip_plan(warper, config)
     if len(plan) == 1:

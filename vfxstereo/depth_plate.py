@@ -1,4 +1,4 @@
-"""The robust depth stage's whole-plate steps 9-18: the map of :mod:`vfxstereo.depth`'s steps 1-8, corrected.
+"""The robust depth stage's whole-plate steps 9-19: the map of :mod:`vfxstereo.depth`'s steps 1-8, corrected.
 
 :func:`vfxstereo.depth.robust_depth` solves steps 1-8 in horizontal strips when the cost volumes exceed
 their memory budget; :func:`_reopened` then runs these steps once on the whole plate's map:
@@ -52,6 +52,13 @@ their memory budget; :func:`_reopened` then runs these steps once on the whole p
    placed nearer than what lies around the line, at four or more places, takes their depth along its length,
    where the line has their colour and the views do not contradict the move: a grille's bar, a rail or a wire
    along a horizontal rig's baseline, which shifts along itself, so that matching along the rows cannot see it.
+19. Rim colours (``rim_ratio``, :func:`rim_colours`), on the whole plate, last: a pixel on the near side of a depth jump
+   (3 x 3) takes the back's disparity where its colour is nearer the mean colour of the back side than of the
+   front side (7 x 7, the pixels at jumps left out) by more than ``rim_ratio`` (3) in distance; two rounds.
+   The one- and two-pixel rim of background the window of steps 1-3 leaves around a subject on either side
+   (on Middlebury four fifths of the bad pixels near depth jumps are too near, and most of those lie within
+   2 px of the surface whose depth they took). Not checked against the views: where it acts, the views are
+   what put the rim in front. ``DepthConfig.rim_ratio`` has the numbers.
 
 Where the map's foreground fattening costs the z-key most (session 27, the z-key scenes that were tuning scenes
 then, 68 rows): of the near-edge pixels put more than 1 px too near (19 % of the pixels within 4 px of a true
@@ -92,9 +99,9 @@ from vfxstereo.progress import Progress, report
 
 
 def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConfig, progress) -> DepthResult:
-    """``res`` after the whole-plate steps 9-18.
+    """``res`` after the whole-plate steps 9-19.
 
-    Reopen, colour_reopen, thin, join, own, cells, spread, rims, boards, rails.
+    Reopen, colour_reopen, thin, join, own, cells, spread, colour again, boards, rails, rim colours.
     """
     from vfxstereo.layers import plane_index
     from vfxstereo.sweep import matching_values
@@ -212,7 +219,7 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
         if moved.any():
             res.disparity = rims
             changed = True
-        res.timings["rims"] = time.perf_counter() - t0
+        res.timings["rim colours"] = time.perf_counter() - t0
     if changed:  # the planes of the map the steps left, once
         res.index = plane_index(res.disparity, warper.disparities)
     return res
