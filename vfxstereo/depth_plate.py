@@ -478,7 +478,7 @@ def _rim_sides(d: np.ndarray, jump: float) -> tuple[np.ndarray, np.ndarray]:
     return lo, ndimage.maximum_filter(d, size=3, mode="nearest") - lo >= jump
 
 
-def rim_colours(disparity: np.ndarray, colour: np.ndarray, *, ratio: float = 1.5, passes: int = 2,
+def rim_colours(disparity: np.ndarray, colour: np.ndarray, *, ratio: float = 3.0, passes: int = 2,
                 radius: int = 3, jump: float = 1.5, tolerance: float = 0.5,
                 least: int = 3) -> tuple[np.ndarray, np.ndarray]:
     """Step 19: the near-side rim of each depth jump goes to the back where its colour is the back's.
@@ -506,14 +506,13 @@ def rim_colours(disparity: np.ndarray, colour: np.ndarray, *, ratio: float = 1.5
     return d, d != before
 
 
-def rim_colours_reference(disparity: np.ndarray, colour: np.ndarray, *, ratio: float = 1.5, passes: int = 2,
+def rim_colours_reference(disparity: np.ndarray, colour: np.ndarray, *, ratio: float = 3.0, passes: int = 2,
                           radius: int = 3, jump: float = 1.5, tolerance: float = 0.5,
                           least: int = 3) -> tuple[np.ndarray, np.ndarray]:
     """Plain numpy :func:`rim_colours`, the reference its kernel is tested against."""
     before = np.asarray(disparity, np.float32)
     c = np.asarray(colour, np.float64)
     d = before.copy()
-    h, w = d.shape
     for _ in range(passes):
         lo, edge = _rim_sides(d, jump)
         new = d.copy()
