@@ -302,14 +302,8 @@ class DepthConfig:
     walls and tassels_room -0.2 to -0.7). Most of the remaining "fattening" on those scenes is hair below
     alpha 0.5 and half-occluded strips wider than the neighbourhood, which this step does not reach. Re-measured
     since (all later steps in place): session 44, -0.80 / -0.40 dB on the tuning rows; with
-    ``edge_zbuffer="sided"``, see there. A plainer fix of the rim measured in session 46 (outside the code): a
-    pixel on the near side of a jump (3x3) takes the back disparity where its plate colour is nearer the mean
-    of the back side's than of the front side's (7x7, rim pixels left out; 2 passes). On the final maps of the
-    72 z-key scene/rig pairs it moved 114k pixels, 72k right and 9k wrong, and the hard key from our map
-    gained +0.55 / +0.83 dB frame / band at K = 5 and +0.50 / +0.73 at K = 2 -- but our comp did not:
-    -0.02 / +0.05 and -0.12 / -0.20 (wicker_wall and tassels_room -1.5 to -3 dB, ostrich_grille and
-    witch_monster +0.5 to +1): the soft-edge passes (:attr:`vfxstereo.softedge.SoftEdgeParams.passes`) already
-    move near-side pixels back from the matte, and they are tuned to start from the fattened edge."""
+    ``edge_zbuffer="sided"``, see there. The rim is now taken by step 19 (colour, not matching; on by default,
+    ``rim_ratio``), whose docstring has the numbers."""
     edge_radius: int = 4
     """Half-side of the neighbourhood whose disparity range marks a depth edge and gives the two candidates."""
     edge_jump: float = 1.5
