@@ -191,7 +191,8 @@ def test_soft_edge_settings_that_cannot_work_are_refused():
 
     for bad in ({"radius": 0}, {"dilate": -1}, {"fill_sigma": -1.0}, {"fill_sigma": float("nan")}, {"snap": 0.5},
                 {"reach": -1}, {"relabel_floor": -0.1},
-                {"relabel_radius": -1}, {"middle": -1}, {"min_separation": -0.1}, {"back": "nearest"},
+                {"relabel_radius": -1}, {"middle": -1}, {"min_separation": -0.1}, {"separation_floor": 0.0},
+                {"back": "nearest"},
                 {"separation_where": "anywhere"}, {"through": -0.01}, {"through": float("nan")},
                 {"laplacian_sure": -0.1}, {"laplacian_sure": float("nan")}, {"laplacian_free": -1}):
         with pytest.raises(VfxStereoError, match="soft edges"):
@@ -446,6 +447,44 @@ def test_a_rim_grown_over_a_plain_wall_goes_back_past_its_wall_coloured_samples(
         assert (final[sep][square] == 6.0).mean() > 0.98  # the square itself stays
     back = {sep: float((d[rim] == 1.0).mean()) for sep, d in final.items()}
     assert back[0.0] < 0.75 and back[0.18] > 0.95, back  # measured 0.58, 1.0
+
+
+def _dark_jacket():
+    """A dark jacket (d = 6) with a white cuff 8 px above its lower edge, over a plain dark shadow (d = 1), K = 5:
+    views, warper, true depth and its plane index."""
+    from vfxstereo import zkey_scenes as scenes
+
+    rng = np.random.default_rng(4)
+    canvas = (72 + 2 * 16, 96 + 2 * 16)
+    shadow = scenes.painted_wall(canvas, (0.05, 0.04, 0.03), rng)
+    jacket = np.empty((44, 44, 3), np.float32)
+    jacket[:] = (0.02, 0.015, 0.01)
+    jacket += rng.normal(0, 0.002, jacket.shape).astype(np.float32)
+    jacket[30:36, 8:36] = (0.8, 0.78, 0.72)
+    layers_ = [scenes.PlanarLayer("shadow", scenes.opaque(shadow), 1.0),
+               scenes.PlanarLayer("jacket", scenes.place(scenes.opaque(np.clip(jacket, 0.0, 1.0)), canvas, 30, 42),
+                                  6.0)]
+    s = scenes.Scene("dark jacket", layers_, positions=np.arange(-2.0, 3.0), reference=2, margin=16,
+                     gains=np.ones(5))
+    planes = np.arange(0.0, 8.5, 0.5)
+    truth = s.gt_disparity(0.5).astype(np.float32)
+    return s.views(), Warper(Camera.from_positions(s.positions, s.reference), planes, s.shape), truth, \
+        layers.plane_index(truth, planes)
+
+
+def test_a_dark_subject_over_a_dark_background_is_not_walked_past():
+    """In linear light a dark jacket and the dark shadow behind it are close: with ``separation_floor`` 0.01 the
+    jacket's own samples count as the shadow's colour and are walked past, the white cuff beyond explains the
+    jacket as clear, and the passes eat it from its edges. With the default, the depth map's exact edge stays."""
+    views, warper, truth, index = _dark_jacket()
+    jacket = truth == 6.0
+    eaten = {}
+    for floor in (0.01, softedge.SoftEdgeParams().separation_floor):
+        params = softedge.SoftEdgeParams(separation_floor=floor)
+        vol = layers.initial_volume(views, warper, 2, truth, index, white=1.0)
+        final = softedge.soften_edges_passes(vol, views, warper, 2, truth, index, params=params, white=1.0)[2]
+        eaten[floor] = float((final[jacket] < 6.0).mean())
+    assert eaten[0.01] > 0.5 and eaten[softedge.SoftEdgeParams().separation_floor] < 0.02, eaten  # 0.77, 0
 
 
 def test_walking_past_wall_coloured_samples_only_over_a_plain_background():
