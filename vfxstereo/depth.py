@@ -699,7 +699,14 @@ class DepthConfig:
     Cost: one more SGM and one more :func:`rival_gap` in the last pass, into the flat guard's buffer (no
     volume more; without the guard, one: :func:`bytes_per_cell`), and the step itself (0.03-0.11 s at
     320 x 240 x 33 planes, against SGM's 0.1 s): Middlebury Art (7 views, 695 x 555, 81 planes), the whole depth
-    stage 1.09x its time without the step (best of two, side by side)."""
+    stage 1.09x its time without the step (best of two, side by side).
+
+    Tried in session 47 for curls_wire_midd's card (sent to d = 0, behind the wall at 1.5): steps 14 and 15 moving
+    no pixel more than 0.5 px behind the farthest depth the map gives a textured pixel within 32 px keeps it (its
+    too-far pixels 2015 -> 391 at K = 5), but the plain walls behind ostrich_grille and flowers_fence have no
+    texture at their depth nearby: z-key tuning rows -0.60 / -0.35 and -0.54 / -0.36 dB (K = 5, 2; ostrich_grille
+    -7.7 / -5.8); the frame's texture as the limit instead (all but its farthest 1 %): -0.43 / -0.29 and -0.45 /
+    -0.30. Not kept."""
     cells_rival: float = 3.0
     """Step 14's rival depth (px per view step): :attr:`rival_jump` of its map."""
     cells_jump: float = 1.5
@@ -852,7 +859,19 @@ class DepthConfig:
     worst set 0.83x -> 0.82x), the pair 14.33 -> 14.31; near the depth jumps too near 20.6 -> 19.6 %, too far 5.5 ->
     5.9; from all views better on 24 sets, worse on 4 by at most 0.04, from the pair worse on 12 by at most 0.2
     (Baby1 9.08 -> 9.28). Held-out views: tsukuba 33.89 -> 33.75 dB, teddy 31.18 -> 31.22, Cloth1 41.29 -> 41.28
-    (the SGBM warp 32.52, 29.65, 35.00). At 1920 x 1080, 0.07x the time of step 10."""
+    (the SGBM warp 32.52, 29.65, 35.00). At 1920 x 1080, 0.07x the time of step 10.
+
+    Session 47, the looser ratio with the later stages retuned around it (z-key tuning rows, 302, frame / band dB
+    against the default, K = 5; K = 2): 1.0 -0.13 / -0.08; -0.25 / -0.38 (shelf_grille K = 2 -3.4 / -4.7,
+    wicker_wall K = 2 -2.6 / -2.9, tassels_room K = 5 -2.4 / -2.5); with 3 soft-edge passes -0.55 / -0.46; -0.09 /
+    -0.47; with ``relabel_explained`` 0.5 -0.16 / -0.08; -0.27 / -0.42; with ``laplacian_free`` 0 -0.19 / -0.13;
+    -0.43 / -0.58. Where it loses, the map barely changes: on shelf_grille K = 2 the maps agree around the teddy
+    whose card row falls (72 -> 43 dB), but the passes move 75 of its pixels there against 5 and turn 40 px of
+    it see-through, and on tassels_room K = 5 a hole between tassels that the passes opened from the old rim
+    stays filled from the new one. Checking step 19's moves against the views (as steps 12-18's, groups of
+    moved pixels or each pixel alone; on a random-dot board the check puts back every wrong move of ratio 0.5)
+    did not help: ratio 3 -0.02 / -0.03; -0.02 / -0.02, 1.5 +0.02 / -0.02; -0.27 / -0.17, 1.0 -0.04 / -0.10;
+    -0.45 / -0.42. Not kept."""
     rim_passes: int = 2
     """Rounds of step 19 (a rim 2 px wide goes in two)."""
     rim_radius: int = 3
