@@ -1471,6 +1471,43 @@ def test_grille_cells_keep_a_plain_subject_the_map_split_into_depths(rng):
     assert moved.sum() > 0.9 * cells.sum() and not (moved & ~cells).any()  # the last column sees the blue wall
 
 
+def test_grille_cells_keep_a_plain_card_at_the_depth_its_other_cells_show(rng):
+    """``own_plain``: a cell whose colour, across its bars, lies at a depth between the cell's and the rival map's,
+    on a plain surface of the map (the same plain card, placed in the cells beside it), takes that depth instead
+    of the rival's farthest plane; cells that see no such depth across their bars still go to the rival's. Where
+    that depth's surface is mostly textured (a subject whose depth the window spread over the wall), the rival's
+    depth stands."""
+    d, rival, colour, cells, _ = _grille_over_a_wall(rng)
+    flat = depth_plate.plain_pixels(colour)
+    x = np.arange(d.shape[1])[None, :]
+    first = cells & (x < 12)
+    d[first] = 5.0  # the card, placed there (its texture or an edge): the rival map agrees
+    rival[first] = 5.0
+    second = cells & (x >= 12) & (x < 24)
+    rest = cells & (x >= 24)
+    plain_out, plain_moved = depth_plate.grille_cells(d, rival, colour, flat, ring=8, across=True)
+    np.testing.assert_array_equal(plain_moved, second | rest)
+    np.testing.assert_array_equal(plain_out[second], 2.0)
+    out, moved = depth_plate.grille_cells(d, rival, colour, flat, ring=8, across=True, own_plain=0.6)
+    np.testing.assert_array_equal(moved, second | rest)
+    np.testing.assert_array_equal(out[second], 5.0)  # the card's depth, not the farthest plane
+    np.testing.assert_array_equal(out[rest], 2.0)  # they see the bars' depth across their bars: the rival's
+    np.testing.assert_array_equal(out[~moved], d[~moved])
+    # the depth at 5 on a mostly textured surface: a textured block over the first column, its plain edge beside
+    textured = colour.copy()
+    block = (x < 4) & np.ones(d.shape, bool)
+    textured[block] = rng.uniform(0.0, 1.0, (int(block.sum()), 3))
+    tflat = depth_plate.plain_pixels(textured)
+    d2 = np.where(block, np.float32(5.0), d)
+    assert 0.2 < tflat[(x < 12) & (d2 == 5.0)].mean() < 0.4
+    out2 = depth_plate.grille_cells(d2, np.where(block, np.float32(5.0), rival), textured, tflat, ring=8,
+                                    across=True, own_plain=0.6)[0]
+    np.testing.assert_array_equal(out2[second & tflat], 2.0)
+    out3 = depth_plate.grille_cells(d2, np.where(block, np.float32(5.0), rival), textured, tflat, ring=8,
+                                    across=True, own_plain=0.2)[0]
+    np.testing.assert_array_equal(out3[second & tflat], 5.0)
+
+
 def test_spread_cells_carry_the_wall_from_cell_to_cell_and_keep_a_plain_subject(rng):
     """Step 15: one column of the grille's cells at the wall's depth, the others at the bars': round by round the
     wall's depth crosses the bars until every cell has it; the plain red subject (blue wall around it) stays, and
@@ -1506,12 +1543,14 @@ def test_grille_cells_are_on_by_default_and_their_settings_are_checked():
     from vfxstereo.errors import VfxStereoError
 
     assert depth.DepthConfig().cells and depth.DepthConfig().cells_across and depth.DepthConfig().cells_spread > 0
+    assert depth.DepthConfig().cells_own > 0
     assert depth.bytes_per_cell(depth.DepthConfig(flat_guard=False, cells=True)) == depth.bytes_per_cell(
         depth.DepthConfig())  # the rival map's SGM sums: the guard's buffer, or one of their own
 
     for bad in ({"cells_rival": 0.0}, {"cells_share": 1.5}, {"cells_like": 0.0}, {"cells_ring": 1},
                 {"cells_jump": -1.0}, {"cells_spread": -1}, {"cells_farther": 1.5}, {"colour_again": -1.0},
-                {"colour_again_near": -1}, {"spread_share": 1.5}, {"spread_share": -0.1}):
+                {"colour_again_near": -1}, {"spread_share": 1.5}, {"spread_share": -0.1}, {"cells_own": -0.1},
+                {"cells_own": 1.5}):
         with pytest.raises(VfxStereoError):
             depth.DepthConfig(**bad)
 

@@ -36,7 +36,9 @@ their memory budget; :func:`_reopened` then runs these steps once on the whole p
    rival-gated map (one more SGM over the same cost, the flat-surface bias also on pixels a far depth explains
    about as well) puts farther takes that depth where the plain pixels beyond its thin border mostly have its
    colour, and the views do not contradict the move: a plain wall seen through the cells of a grille or fence,
-   not a plain subject (beyond whose outline lies something else).
+   not a plain subject (beyond whose outline lies something else). Where its colour across the bars already
+   lies between it and that depth, on a mostly plain surface of the map (``cells_own``), it takes that depth
+   instead: a plain card between the grille and the wall, placed in some of its cells.
 15. Spread cells (``cells_spread``, :func:`spread_cells`), on the whole plate: round by round, a plain region
    whose plain pixels across its bars mostly have its colour, some of them farther, takes their depth, where
    the views do not contradict the move: the wall's depth carried from cell to cell across a grille, to the
@@ -180,7 +182,7 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
         checked("cells", t0, *grille_cells(res.disparity, res.cells, colour, flat, jump=config.cells_jump,
                                            share=config.cells_share, like=config.cells_like,
                                            ring=config.cells_ring, tolerance=1.0, join_like=config.join_like,
-                                           across=config.cells_across))
+                                           across=config.cells_across, own_plain=config.cells_own))
         res.cells = None  # done with: not kept in the result
     if cells and config.cells_spread > 0:
         t0 = time.perf_counter()
@@ -889,7 +891,8 @@ def _of_its_colour(colour: np.ndarray, region: np.ndarray, others: np.ndarray, l
 
 def grille_cells(disparity: np.ndarray, rival_map: np.ndarray, colour: np.ndarray, flat: np.ndarray, *,
                  jump: float = 1.5, share: float = 0.7, like: float = 0.02, ring: int = 8, tolerance: float = 1.0,
-                 join_like: float = 0.04, across: bool = False) -> tuple[np.ndarray, np.ndarray]:
+                 join_like: float = 0.04, across: bool = False, own_plain: float = 0.0,
+                 own_quantile: float = 0.1) -> tuple[np.ndarray, np.ndarray]:
     """Step 14: ``(proposed map, moved)``: plain regions seen through a grille take the rival-gated map's depth.
 
     The regions are :func:`plain_surfaces` of ``disparity`` (``flat`` pixels, ``tolerance``, ``join_like``). A
@@ -897,6 +900,14 @@ def grille_cells(disparity: np.ndarray, rival_map: np.ndarray, colour: np.ndarra
     where, of the plain pixels of *other* regions 2 to ``ring`` px around it, at least ``share`` are within
     ``like`` of its median colour in every channel: the same wall again beyond a thin bar. A plain subject sees
     another surface beyond its outline and stays.
+
+    ``own_plain`` > 0: where some of its colour across the bars lies farther than the region by more than
+    ``jump`` (10 px or more), at a depth (their ``own_quantile`` quantile) nearer than the rival-gated map's by
+    more than ``jump``, on a surface of the map (4-connected, steps of at most 1 px, any colour) that is at least
+    ``own_plain`` plain, the region takes that depth instead of the rival's: the same plain card seen in the
+    cells beside it, placed there by its texture or its edges, in front of the farthest plane its colour allows
+    (where the rival map sends it). A wall's colour beside a textured subject, at the subject's depth (the
+    window's fattening), lies on a mostly textured surface and does not count.
     """
     from scipy import ndimage
 
@@ -908,6 +919,10 @@ def grille_cells(disparity: np.ndarray, rival_map: np.ndarray, colour: np.ndarra
     labels, _ = plain_surfaces(d, colour, flat, tolerance=tolerance, like=join_like)
     if across:  # the plain surfaces of the colour alone: a region's own surface, wherever the map split it
         apart, _ = plain_surfaces(np.zeros_like(d), colour, flat, tolerance=1.0, like=join_like)
+    if own_plain > 0:  # the map's surfaces, any colour, and how plain each is
+        surfaces, n_surfaces = plain_surfaces(d, colour, np.ones(d.shape, bool), tolerance=1.0, like=2.0)
+        surface_size = np.bincount(surfaces.ravel(), minlength=n_surfaces).astype(np.float64)
+        surface_plain = np.bincount(surfaces.ravel(), weights=flat.ravel().astype(np.float64), minlength=n_surfaces)
     ids = np.unique(labels[candidate & (labels >= 0)])
     objects = ndimage.find_objects(labels + 1)
     for i in ids:
@@ -917,9 +932,23 @@ def grille_cells(disparity: np.ndarray, rival_map: np.ndarray, colour: np.ndarra
         if across:  # of its own colour surface, only what the map already has at the depth the region would take
             own = np.isin(apart[ys, xs], np.unique(apart[ys, xs][region]))
             others &= ~own | (np.abs(d[ys, xs] - np.median(rival_map[ys, xs][move])) <= jump)
-        if _of_its_colour(colour[ys, xs], region, others, like, share) is None:
+        same = _of_its_colour(colour[ys, xs], region, others, like, share)
+        if same is None:
             continue
-        proposed[ys, xs][move] = rival_map[ys, xs][move]
+        target = None
+        if own_plain > 0:  # its colour across a bar, farther than the region but nearer than the rival's depth
+            far = same & (d[ys, xs] < float(np.median(d[ys, xs][region])) - jump)
+            if far.sum() >= 10:
+                t = float(np.quantile(d[ys, xs][far], own_quantile))
+                ids = np.unique(surfaces[ys, xs][far & (np.abs(d[ys, xs] - t) <= jump)])
+                if (t > float(np.median(rival_map[ys, xs][move])) + jump
+                        and surface_plain[ids].sum() >= own_plain * surface_size[ids].sum()):
+                    target = t
+        if target is None:
+            proposed[ys, xs][move] = rival_map[ys, xs][move]
+        else:
+            move &= d[ys, xs] > target + jump
+            proposed[ys, xs][move] = target
     return proposed, proposed != d
 
 
