@@ -541,7 +541,7 @@ def test_a_near_square_at_the_frame_edge_keeps_its_depth_in_a_stereo_pair():
     strip = (slice(12, 28), slice(0, 6))  # the square's columns that the right view does not see
     assert (gt[strip] == 6).all()
     on = depth.robust_depth(views, warper, 0)
-    off = depth.robust_depth(views, warper, 0, config=depth.DepthConfig(frame_edges=False))
+    off = depth.robust_depth(views, warper, 0, config=depth.DepthConfig(frame_edges=False, colour_forward=0.0))
     assert np.mean(np.abs(on.disparity[strip] - 6) <= 0.5) > 0.95
     assert np.mean(np.abs(off.disparity[strip] - 6) <= 0.5) < 0.5  # matching alone takes the background there
 
@@ -633,8 +633,9 @@ def test_reopening_is_off_by_default_and_runs_in_the_stage_when_asked():
 
     views, warper, ref, gt, gaps, board = _gapped_scene(plain_background=False)
     assert not depth.DepthConfig().reopen
-    on = depth.robust_depth(views, warper, ref, config=replace(depth.DepthConfig(), reopen=True))
-    off = depth.robust_depth(views, warper, ref)
+    plain = depth.DepthConfig(colour_forward=0.0)  # step 16's colour forward may move pixels nearer: not here
+    on = depth.robust_depth(views, warper, ref, config=replace(plain, reopen=True))
+    off = depth.robust_depth(views, warper, ref, config=plain)
     assert "reopen" in on.timings and "reopen" not in off.timings
     assert np.all(on.disparity <= off.disparity)  # only back
     from vfxstereo.layers import plane_index
@@ -943,6 +944,31 @@ def test_colour_reopening_gives_a_grown_rim_back_to_the_wall_and_nothing_else():
     assert not moved[:, 30:].any() and moved[:, 27:30].sum() >= 90
 
 
+def test_colour_forward_brings_a_plain_card_back_from_the_textured_wall_above_it(rng):
+    """Step 16's colour forward (step 10 on the negated map): a plain card (d = 10) under a textured wall (d = 2)
+    whose top rows the window gave the wall's depth (a horizontal edge a horizontal rig cannot place) joins the
+    card again; the wall stays, and so does a patch of the card's colour on the wall out of the card's reach."""
+    h, w = 80, 90
+    colour = rng.uniform(0.0, 1.0, (h, w, 3)).astype(np.float32)  # the textured wall
+    colour[40:, 20:70] = (0.8, 0.75, 0.6)
+    colour[5:9, 75:79] = (0.8, 0.75, 0.6)  # the card's colour on the wall, far from the card
+    truth = np.full((h, w), 2.0, np.float32)
+    truth[40:, 20:70] = 10.0
+    fat = truth.copy()
+    fat[40:45, 20:70] = 2.0  # the card's top rows at the wall's depth
+    out, moved = depth_plate.reopen_by_colour(-fat, colour, radius=20, stride=2, ratio=2.0)
+    out = -out
+    np.testing.assert_array_equal(out[40:45, 20:70], 10.0)
+    np.testing.assert_array_equal(moved, (truth != fat))
+    assert np.all(out >= fat)  # forward only
+    # with its ratio 0 the step is off; bad values are refused
+    from vfxstereo.errors import VfxStereoError
+
+    assert depth.DepthConfig().colour_forward > 0
+    with pytest.raises(VfxStereoError):
+        depth.DepthConfig(colour_forward=-1.0)
+
+
 def test_colour_reopening_runs_in_the_stage_by_default_and_its_settings_are_checked():
     from dataclasses import replace
 
@@ -955,6 +981,7 @@ def test_colour_reopening_runs_in_the_stage_by_default_and_its_settings_are_chec
     off = depth.robust_depth(views, warper, ref, config=replace(depth.DepthConfig(), colour_reopen=False))
     assert "colour reopen" in on.timings and "colour reopen" not in off.timings
     assert "join" in on.timings and "join" in off.timings  # step 12 runs by default
+    assert "colour forward" in on.timings  # and step 16's colour forward
     assert np.all(on.disparity <= off.disparity)
     np.testing.assert_array_equal(on.index, plane_index(on.disparity, warper.disparities))
     for bad in ({"colour_radius": 0}, {"colour_stride": 0}, {"colour_like": 0.0}, {"colour_ratio": 0.0},
@@ -1060,8 +1087,9 @@ def test_thin_bars_the_window_erased_come_back_and_nothing_else_moves(monkeypatc
 
     views, warper, ref, gt, solid = _bars_over_texture()
     assert depth.DepthConfig().thin
-    off = depth.robust_depth(views, warper, ref, config=replace(depth.DepthConfig(), thin=False)).disparity
-    on = depth.robust_depth(views, warper, ref)
+    alone = depth.DepthConfig(colour_forward=0.0)  # step 11 alone: step 16's colour forward moves nearer too
+    off = depth.robust_depth(views, warper, ref, config=replace(alone, thin=False)).disparity
+    on = depth.robust_depth(views, warper, ref, config=alone)
     bars = solid > 6
     right = lambda d: float(np.mean(np.abs(d[bars] - gt[bars]) <= 1))  # noqa: E731
     assert right(off) < 0.05 and right(on.disparity) > 0.1, (right(off), right(on.disparity))
@@ -1616,10 +1644,15 @@ def test_whole_boards_complete_a_plain_board_a_stereo_pair_split():
     """On a stereo pair the flat-surface bias sends more than half of a plain board in front of a textured wall
     back (its flat guard keeps it at K = 5); step 17 gives the rest the plane of the part its edges placed, and the
     wall is left where it is."""
-    far, wall_near = _pair_board_errors({False: depth.DepthConfig(boards=False), True: depth.DepthConfig()})
+    far, wall_near = _pair_board_errors({False: depth.DepthConfig(boards=False, colour_forward=0.0),
+                                         True: depth.DepthConfig(colour_forward=0.0),
+                                         "forward": depth.DepthConfig(boards=False)})
     assert far[False] > 0.4, far  # the case exists on a pair
     assert far[True] < 0.15, far
     assert wall_near[True] <= wall_near[False] + 0.002, wall_near
+    # step 16's colour forward alone joins much of the board's back part to its near part, by its colour
+    assert far["forward"] < 0.75 * far[False], far
+    assert wall_near["forward"] <= wall_near[False] + 0.002, wall_near
 
 
 def _level_grille(rng, *, line_colour=0.8, posts=8, first=30):

@@ -813,6 +813,43 @@ class DepthConfig:
     ratio 2.5 30.76 / 24.86, losing 16 / 9."""
     colour_again_near: int = 4
     """Step 16's reach around the pixels steps 14 and 15 moved (px); 0: the whole plate."""
+    colour_forward: float = 2.0
+    """Step 16's second half, colour forward: step 10 the other way round (:func:`reopen_by_colour` of the negated
+    map), on the whole plate, with this ratio (0: off), ``colour_radius``, ``colour_like`` and ``colour_jump``,
+    checked against the views as step 12's moves. A pixel whose colour is more than this many times as common
+    among the nearer surfaces within ``colour_radius`` px as at its own depth takes the depth of the nearest
+    nearer pixel of its colour, where the pixels so moved join a nearer surface already in the map. The window
+    of steps 1-3 gives a plain card or board the depth of a textured background beside it, across an edge a
+    horizontal rig cannot place (its top or bottom: curls_wire_midd's card under the wall); nothing else brings
+    it forward, and its colour says where it belongs.
+
+    Added in session 48, on by default. It is the one step that moves pixels nearer by colour; it only joins them
+    to a surface of their colour the map already has beside them, never makes a new one. On curls_wire_midd K = 5
+    (the card's top under the wall) its too-far card pixels 651 -> 294 (too-near ones 3829 -> 4296). Measured on
+    the z-key benchmark (frame / band dB; rows losing to the SGBM key, frame / band), against the default without
+    it, side by side:
+
+    * tuning rows (302): K = 5 +0.25 / +0.28, K = 2 +0.20 / +0.22; losing 8 / 6 -> 7 / 6 (curls_wire_midd K = 5's
+      card at d = 3 turns to winning, -2.9 / -1.3 -> +0.8 / +0.5 against the key; petals_grille_plastic K = 2's
+      band at d = 12.4 turns to losing, +0.9 -> -1.2). Best: shelf_grille K = 2's card at d = 12.5 +7.5 / +7.5,
+      sign_plant_aloe K = 5 +7.6 frame, ostrich_grille K = 2's card at d = 11.5 +5.8 / +9.2, doll_plant's card at
+      d = 6 +5.3 / +5.6 and +5.5 / +5.8. Worst: curls_wire_midd K = 5's card at d = 11.6 -5.1 / -2.8,
+      sheep_duck_wall K = 2's three small cards -5.0 frame (a pale subject over a wall of its colour),
+      duck_monster_baby K = 5's full card at d = 10.4 -2.8 frame, rabbit_cream_board K = 2 -2.6 / -3.1;
+    * held-out rows (60, scored once, after the choice): K = 5 +0.20 / +0.35, K = 2 +0.75 / +0.46, none turning
+      (board_fence_toy +2 to +3.7, plank_toy_wood K = 2 +2.7 to +6.0 frame; worst wire_plant_laundry K = 2 -0.9 /
+      -0.7);
+    * all 362 rows: 31.69 / 25.34 -> 31.95 / 25.62;
+    * Middlebury, depth only, all 31 sets: from all views 9.13 -> 9.17 % (0.464x -> 0.466x SGBM;
+      Moebius 11.97 -> 12.29, Art 10.67 -> 10.85, Monopoly, Aloe, Dolls +0.1; none losing), from the classic pair
+      14.31 -> 14.27 % (tsukuba 5.45 -> 5.26).
+
+    Tried only in the first form measured: radius 40 (``colour_radius``), ratio 2, every pixel. First tries at
+    radius 16, plain pixels only, ratios 4 and 8, moved nothing on curls_wire_midd. Known weakness: in a random
+    texture one chance match of a pixel's colour among the nearer pixels, and none at its own depth, passes the
+    ratio. On the step-11 test's synthetic bars over a random texture, the share of step 11's moves that land on
+    the bars' depth falls from over 0.9 to 0.70 with this step on in both maps (that test runs without it); a
+    minimum count of matches is untried."""
     boards: bool = True
     """Step 17 (:func:`whole_boards`), on the whole plate: a plain surface of one colour that the map splits
     between a near part and a farther rest takes its near part's plane throughout, where that near part is the
@@ -954,11 +991,12 @@ class DepthConfig:
         if (self.cells_rival <= 0 or self.cells_jump < 0 or not 0 <= self.cells_share <= 1 or self.cells_like <= 0
                 or self.cells_ring < 2 or self.cells_spread < 0 or not 0 <= self.cells_farther <= 1
                 or not 0 <= self.cells_own <= 1
-                or self.colour_again < 0 or self.colour_again_near < 0
+                or self.colour_again < 0 or self.colour_again_near < 0 or self.colour_forward < 0
                 or not (self.spread_share is None or 0 <= self.spread_share <= 1)):
             raise VfxStereoError("depth settings: cells_rival > 0, cells_jump >= 0, 0 <= cells_share <= 1, "
                                  "cells_like > 0, cells_ring >= 2, cells_spread >= 0, 0 <= cells_farther <= 1, "
-                                 "0 <= cells_own <= 1, colour_again, colour_again_near >= 0, 0 <= spread_share <= 1")
+                                 "0 <= cells_own <= 1, colour_again, colour_again_near, colour_forward >= 0, "
+                                 "0 <= spread_share <= 1")
         if self.own_rows < 1 or not 0 <= self.own_cover <= 1 or not 0 <= self.own_solid <= 1 or self.own_margin < 0:
             raise VfxStereoError("depth settings: own_rows >= 1, 0 <= own_cover <= 1, 0 <= own_solid <= 1, "
                                  "own_margin >= 0")

@@ -44,7 +44,13 @@ their memory budget; :func:`_reopened` then runs these steps once on the whole p
    the views do not contradict the move: the wall's depth carried from cell to cell across a grille, to the
    cells step 14's map missed.
 16. Rims (``colour_again``), around the cells steps 14 and 15 sent back: step 10 once more, with a lower
-   ratio: the rim of wall colour the window left around each bar goes back with its cell.
+   ratio: the rim of wall colour the window left around each bar goes back with its cell. Then colour forward
+   (``colour_forward``, :func:`reopen_by_colour` of the negated map), on the whole plate: step 10 the other way
+   round, where the views do not contradict the move: a pixel whose colour is far more common among the nearer
+   surfaces within 40 px than at its own depth takes the depth of the nearest nearer pixel of its colour, where
+   the pixels so moved join a nearer surface already in the map: the part of a plain card or board beside a
+   textured background, across an edge that matching along the rows cannot place (its top and bottom), that the
+   window gave the background's depth.
 17. Whole boards (``boards``, :func:`whole_boards`), on the whole plate: a plain surface of one colour that the
    map splits between a near part and a farther rest takes the near part's plane throughout, where that near
    part is the nearest thing around it and the views do not contradict the move: a plain board in front whose
@@ -103,7 +109,7 @@ from vfxstereo.progress import Progress, report
 def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConfig, progress) -> DepthResult:
     """``res`` after the whole-plate steps 9-19.
 
-    Reopen, colour_reopen, thin, join, own, cells, spread, colour again, boards, rails, rim colours.
+    Reopen, colour_reopen, thin, join, own, cells, spread, colour again, colour forward, boards, rails, rim colours.
     """
     from vfxstereo.layers import plane_index
     from vfxstereo.sweep import matching_values
@@ -113,7 +119,7 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
     cells = res.cells is not None
     colour = (matching_values(views[reference], "srgb", 1.0)
               if config.colour_reopen or config.join or config.own or cells or config.colour_again > 0
-              or config.boards or config.rails else None)
+              or config.colour_forward > 0 or config.boards or config.rails else None)
     pair, res.pair = res.pair, None  # step 6's map of the pair's other view: step 9's check on a pair, then freed
     if config.reopen and config.reopen_passes > 0 and views.shape[0] - 1 >= config.reopen_views:
         t0 = time.perf_counter()
@@ -138,7 +144,7 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
         res.timings["colour reopen"] = time.perf_counter() - t0
         changed = True
     checks = config.join_check and (config.join or config.own or cells or config.colour_again > 0 or config.boards
-                                    or config.rails)
+                                    or config.rails or config.colour_forward > 0)
     kept: dict = {}  # step 11's view errors of the map, for the checks of steps 12-18 while the map is unchanged
     if config.thin:
         t0 = time.perf_counter()
@@ -204,6 +210,12 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
             moved &= near
             again = np.where(moved, again, res.disparity).astype(np.float32)
         checked("colour again", t0, again, moved)
+    if config.colour_forward > 0:  # step 10 the other way: a colour that belongs to a nearer surface beside it
+        t0 = time.perf_counter()
+        forward, moved = reopen_by_colour(-res.disparity, colour, radius=config.colour_radius,
+                                          stride=config.colour_stride, like=config.colour_like,
+                                          ratio=config.colour_forward, jump=config.colour_jump)
+        checked("colour forward", t0, np.where(moved, -forward, res.disparity).astype(np.float32), moved)
     if config.boards:
         t0 = time.perf_counter()
         checked("boards", t0, *whole_boards(res.disparity, colour, flat, jump=config.join_jump, like=config.join_like,
