@@ -162,8 +162,8 @@ def test_a_stereo_pair_keeps_strands_that_cross_the_frame_edge(shared_data):
 def _depth_maps(shared_data, name: str, K: int, **settings: dict) -> tuple[np.ndarray, dict]:
     """``(true disparity, {label: map})``: the robust depth stage's map of the scene per set of
     :class:`~vfxstereo.depth.DepthConfig` settings (over the default), on the benchmark's planes. Step 19 (rim
-    colours), which runs after every step these tests single out and can move the pixels they compare, is off
-    unless a set asks for it."""
+    colours) and step 16's colour forward, which run after the steps these tests single out and can move the
+    pixels they compare (colour forward nearer), are off unless a set asks for them."""
     from dataclasses import replace
 
     from vfxstereo import depth
@@ -175,7 +175,8 @@ def _depth_maps(shared_data, name: str, K: int, **settings: dict) -> tuple[np.nd
     gt = s.gt_disparity(0.5)
     warper = Warper(Camera.from_positions(s.positions, s.reference), np.arange(0.0, 16.25, 0.5), gt.shape)
     return gt, {label: depth.robust_depth(views, warper, s.reference,
-                                          config=replace(depth.DepthConfig(), **{"rim_ratio": 0.0, **kw})).disparity
+                                          config=replace(depth.DepthConfig(),
+                                                         **{"rim_ratio": 0.0, "colour_forward": 0.0, **kw})).disparity
                 for label, kw in settings.items()}
 
 
