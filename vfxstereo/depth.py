@@ -835,7 +835,9 @@ class DepthConfig:
       sign_plant_aloe K = 5 +7.6 frame, ostrich_grille K = 2's card at d = 11.5 +5.8 / +9.2, doll_plant's card at
       d = 6 +5.3 / +5.6 and +5.5 / +5.8. Worst: curls_wire_midd K = 5's card at d = 11.6 -5.1 / -2.8,
       sheep_duck_wall K = 2's three small cards -5.0 frame (a pale subject over a wall of its colour),
-      duck_monster_baby K = 5's full card at d = 10.4 -2.8 frame, rabbit_cream_board K = 2 -2.6 / -3.1;
+      duck_monster_baby K = 5's full card at d = 10.4 -2.8 frame, rabbit_cream_board K = 2 -2.6 / -3.1, and on
+      the band artichoke_books K = 5's card at d = 4 -4.5 (already losing: -0.2 -> -4.7 against the key) and
+      boards_rocks K = 2's card at d = 11.4 -3.4;
     * held-out rows (60, scored once, after the choice): K = 5 +0.20 / +0.35, K = 2 +0.75 / +0.46, none turning
       (board_fence_toy +2 to +3.7, plank_toy_wood K = 2 +2.7 to +6.0 frame; worst wire_plant_laundry K = 2 -0.9 /
       -0.7);
