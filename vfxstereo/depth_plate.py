@@ -215,7 +215,7 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
         forward, moved = reopen_by_colour(-res.disparity, colour, radius=config.colour_radius,
                                           stride=config.colour_stride, like=config.colour_like,
                                           ratio=config.colour_forward, jump=config.colour_jump)
-        checked("colour forward", t0, np.where(moved, -forward, res.disparity).astype(np.float32), moved)
+        checked("colour forward", t0, -forward, moved)  # unmoved pixels: the map itself, negated twice
     if config.boards:
         t0 = time.perf_counter()
         checked("boards", t0, *whole_boards(res.disparity, colour, flat, jump=config.join_jump, like=config.join_like,
@@ -941,9 +941,10 @@ def grille_cells(disparity: np.ndarray, rival_map: np.ndarray, colour: np.ndarra
         ys, xs, lab, region, around = _region_window(labels, objects, i, ring)
         move = region & candidate[ys, xs]
         others = around & flat[ys, xs] & (lab != i)
+        rival = float(np.median(rival_map[ys, xs][move]))
         if across:  # of its own colour surface, only what the map already has at the depth the region would take
             own = np.isin(apart[ys, xs], np.unique(apart[ys, xs][region]))
-            others &= ~own | (np.abs(d[ys, xs] - np.median(rival_map[ys, xs][move])) <= jump)
+            others &= ~own | (np.abs(d[ys, xs] - rival) <= jump)
         same = _of_its_colour(colour[ys, xs], region, others, like, share)
         if same is None:
             continue
@@ -952,9 +953,8 @@ def grille_cells(disparity: np.ndarray, rival_map: np.ndarray, colour: np.ndarra
             far = same & (d[ys, xs] < float(np.median(d[ys, xs][region])) - jump)
             if far.sum() >= 10:
                 t = float(np.quantile(d[ys, xs][far], own_quantile))
-                ids = np.unique(surfaces[ys, xs][far & (np.abs(d[ys, xs] - t) <= jump)])
-                if (t > float(np.median(rival_map[ys, xs][move])) + jump
-                        and surface_plain[ids].sum() >= own_plain * surface_size[ids].sum()):
+                under = np.unique(surfaces[ys, xs][far & (np.abs(d[ys, xs] - t) <= jump)])
+                if t > rival + jump and surface_plain[under].sum() >= own_plain * surface_size[under].sum():
                     target = t
         if target is None:
             proposed[ys, xs][move] = rival_map[ys, xs][move]
