@@ -197,6 +197,7 @@ def run_scene(name: str, K: int, preset: str, *, figures: bool = True, overrides
     # where our final front surface (alpha > 0.5) lies against the truth: too near, right, too far (> 1 px)
     ours_front = np.nan_to_num(stack.disparity_map(0.5), nan=-np.inf)
     depth_class = np.where(ours_front > d_true + 1, 0, np.where(ours_front < d_true - 1, 2, 1))
+    by_jump = jump_distance_class(res.disparity)
     rows = []
     for el_name, (element, D) in scene.elements.items():
         truth = scene.comp(element, D)
@@ -219,6 +220,10 @@ def run_scene(name: str, K: int, preset: str, *, figures: bool = True, overrides
         row["band error by depth"] = {m: [float(sq[m][on_band & (depth_class == k)].sum()) for k in range(3)]
                                       for m in sq}
         row["band error by depth"]["pixels"] = [int((on_band & (depth_class == k)).sum()) for k in range(3)]
+        near = on_band & (depth_class == 0)
+        row["band too-near error by jump distance"] = {
+            "ours": [float(sq["ours"][near & (by_jump == k)].sum()) for k in range(len(JUMP_BINS))],
+            "pixels": [int((near & (by_jump == k)).sum()) for k in range(len(JUMP_BINS))]}
         classes = alpha_classes(true_front_alpha(scene, D, d_true), composite.holdout(stack, D))
         row["band error by alpha"] = {m: [float(sq[m][on_band & (classes == k)].sum())
                                           for k in range(len(ALPHA_CLASSES))] for m in sq}
@@ -256,6 +261,22 @@ def alpha_classes(true_a: np.ndarray, ours_a: np.ndarray) -> np.ndarray:
     out[solid & (ours_a >= 0.1) & (ours_a <= 0.9)] = 3
     out[solid & (ours_a < 0.1)] = 4
     return out
+
+
+JUMP_BINS = ("0-1", "1-3", "3-8", "8-16", "16+")
+"""Distance bins (px) of :func:`jump_distance_class`: a too-near pixel next to a depth jump of our map is a rim
+(the window's fattening), one far from every jump lies on a whole surface placed too near."""
+
+
+def jump_distance_class(disparity: np.ndarray, jump: float = 1.5) -> np.ndarray:
+    """Index into :data:`JUMP_BINS` of each pixel: its distance to the nearest pixel at a depth jump of
+    ``disparity`` (3 x 3 range >= ``jump``; those pixels themselves are at 0)."""
+    from scipy import ndimage
+
+    d = np.asarray(disparity, np.float32)
+    at = ndimage.maximum_filter(d, 3, mode="nearest") - ndimage.minimum_filter(d, 3, mode="nearest") >= jump
+    dist = ndimage.distance_transform_edt(~at) if at.any() else np.full(d.shape, np.inf)
+    return np.digitize(dist, [1.0, 3.0, 8.0, 16.0]).astype(np.int8)
 
 
 def _band_without(row: dict, k: int) -> float:
@@ -334,6 +355,12 @@ def tables(rows: list[dict], title: str) -> str:
             f"(too near / right / too far by > 1 px; {px[0] / px.sum():.0%} / {px[1] / px.sum():.0%} / "
             f"{px[2] / px.sum():.0%} of the band's pixels): ours {ours[0]:.0f} / {ours[1]:.0f} / {ours[2]:.0f}, "
             f"the true-depth key {key[0]:.0f} / {key[1]:.0f} / {key[2]:.0f} (summed over the rows).")
+    split = [r["band too-near error by jump distance"] for r in rows if "band too-near error by jump distance" in r]
+    if split:
+        ours = np.sum([b["ours"] for b in split], axis=0)
+        parts = [f"{b} {o / max(ours.sum(), 1e-12):.0%}" for b, o in zip(JUMP_BINS, ours, strict=True)]
+        summary.append("Ours' too-near band error by distance (px) from the nearest depth jump of our map (rims near "
+                       "0, whole surfaces placed too near far out): " + "; ".join(parts) + ".")
     rows_split = [r for r in rows if "band error by alpha" in r]
     split = [r["band error by alpha"] for r in rows_split]
     if split:

@@ -129,3 +129,17 @@ def test_the_band_gain_of_fixing_one_class_alone():
     assert np.isclose(zkey._band_without(row, 2), 20.0)  # the key is as wrong as ours on the soft pixels
     text = zkey.tables([row], "test")
     assert f"clear, under an opaque front {10 * np.log10(n / 2.0) - 20:+.2f}" in text, text
+
+
+def test_too_near_pixels_are_binned_by_their_distance_from_our_depth_jumps():
+    import numpy as np
+
+    d = np.zeros((5, 40), np.float32)
+    d[:, :10] = 5.0  # one step at x = 9 | 10: those two columns are at the jump
+    classes = zkey.jump_distance_class(d)
+    assert list(classes[2, [9, 10, 11, 12, 13, 17, 18, 25, 26, 39]]) == [0, 0, 1, 1, 2, 2, 3, 3, 4, 4]
+    assert (zkey.jump_distance_class(np.zeros((4, 4), np.float32)) == 4).all()  # no jump at all: far from any
+    row = _row((30.0, 20.0), (0, 0))
+    row["band too-near error by jump distance"] = {"ours": [3.0, 1.0, 0.0, 0.0, 4.0], "pixels": [3, 2, 0, 0, 9]}
+    text = zkey.tables([row], "test")
+    assert "0-1 38%; 1-3 12%; 3-8 0%; 8-16 0%; 16+ 50%" in text, text
