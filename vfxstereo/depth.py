@@ -846,12 +846,21 @@ class DepthConfig:
       Moebius 11.97 -> 12.29, Art 10.67 -> 10.85, Monopoly, Aloe, Dolls +0.1; none losing), from the classic pair
       14.31 -> 14.27 % (tsukuba 5.45 -> 5.26).
 
-    Tried only in the first form measured: radius 40 (``colour_radius``), ratio 2, every pixel. First tries at
-    radius 16, plain pixels only, ratios 4 and 8, moved nothing on curls_wire_midd. Known weakness: in a random
-    texture one chance match of a pixel's colour among the nearer pixels, and none at its own depth, passes the
-    ratio. On the step-11 test's synthetic bars over a random texture, the share of step 11's moves that land on
-    the bars' depth falls from over 0.9 to 0.70 with this step on in both maps (that test runs without it); a
-    minimum count of matches is untried."""
+    Radius 40 (``colour_radius``), every pixel. First tries at radius 16, plain pixels only, ratios 4 and 8, moved
+    nothing on curls_wire_midd. Known weakness: in a random texture one chance match of a pixel's colour among the
+    nearer pixels, and none at its own depth, passes the ratio. On the step-11 test's synthetic bars over a random
+    texture, the share of step 11's moves that land on the bars' depth falls from over 0.9 to 0.70 with this step
+    on in both maps (that test runs without it).
+
+    Swept in session 49 against ratio 2, side by side (z-key tuning rows, mean change frame / band dB; rows losing
+    to the SGBM key): ratio 3: K = 5 +0.01 / +0.02, K = 2 +0.12 / +0.06, losing 7 / 6 -> 8 / 6; held-out rows
+    (60) K = 5 +0.02 / +0.00, K = 2 +0.01 / -0.01, none turning. It trades rows rather than fixing a kind of
+    error: sheep_duck_wall K = 2's three small cards +5.0 frame and boards_rocks K = 2 +2.3 / +3.5 back, but
+    sign_plant_aloe K = 2's card at d = 10.2 -5.6 frame and curls_wire_midd's card at d = 3 -1.6 / -0.6 lost.
+    Ratio 4: K = 5 +0.01 / -0.02, K = 2 +0.12 / +0.09, losing 8 / 7. A minimum of 3 matches of the pixel's colour
+    among the nearer pixels (against the chance match above), ratio 2: K = 5 -0.00 / -0.03, K = 2 -0.15 / -0.08
+    (shelf_grille K = 2's card at d = 12.5 -5.8 / -5.8), losing 7 / 6 -> 7 / 5. Ratio 2 stays: the gains at 3-4
+    are within what one row's swap moves, and nothing on the held-out rows."""
     boards: bool = True
     """Step 17 (:func:`whole_boards`), on the whole plate: a plain surface of one colour that the map splits
     between a near part and a farther rest takes its near part's plane throughout, where that near part is the
