@@ -1023,3 +1023,71 @@ def test_the_background_the_map_hides_behind_a_rim_is_read_through_the_hairs_gap
     errors = {th: _fattened_hair_rms(softedge.SoftEdgeParams(laplacian=0.0, dilate=3, through=th))[0]
               for th in (0.0, on)}
     assert errors[on] < 0.6 * errors[0.0], errors
+
+
+def test_soft_front_says_where_the_passes_moved_the_front_surface():
+    from vfxstereo.solver import soft_front
+
+    rgba = np.zeros((3, 1, 4, 4), np.float32)
+    rgba[0, ..., 3] = 1.0  # the back plane everywhere
+    rgba[2, 0, 0, 3] = 0.9  # pixel 0: still in front
+    rgba[2, 0, 1, 3] = 0.4  # pixel 1: the passes made it see-through: its front is now the back
+    rgba[1, 0, 2, 3] = 0.6  # pixel 2: its front is plane 1, in front of the back
+    index = np.array([[2, 2, 0, 0]])
+    rgba[:, 0, 3, 3] = 0.0  # pixel 3: nothing above 0.5 anywhere: it keeps the map's plane
+    d = np.array([1.0, 3.0, 6.0])
+    assert soft_front(rgba, d, index).tolist() == [[False, True, True, False]]
+    assert soft_front(rgba, d, index, which=True).tolist() == [[2, 0, 1, 0]]
+    kept = rgba[[0, 2]]  # a stack that keeps only planes 0 and 2 of the sweep
+    assert soft_front(kept, d, index, np.array([0, 2]), which=True).tolist() == [[2, 0, 0, 0]]
+
+
+def test_a_second_soft_round_only_runs_with_three_views_or_more():
+    """A stereo pair gets one round whatever soft_rounds says. With five views, a square fattened by 3 px: the
+    first round's passes bring its front back to the truth, and a second round from that front gives the same
+    stack (a settled front is a fixed point)."""
+    from scipy import ndimage
+
+    from vfxstereo import SolveConfig, VfxStereoError, solve
+    from vfxstereo.solver import soft_front
+
+    s = _two_layer_scene()
+    fat = ndimage.maximum_filter(s.gt_disparity(0.5), size=7).astype(np.float32)  # fattened: the passes move
+    base = SolveConfig.preset("robust")
+    pair = {}
+    for rounds in (1, 2):
+        pair[rounds] = solve(s.views[1:3], positions=s.camera.positions[1:3], reference=0,
+                             disparities=s.disparities, config=base.replace(soft_rounds=rounds),
+                             disparity=fat).rgba
+    np.testing.assert_array_equal(pair[1], pair[2])
+    res = {rounds: solve(s.views, camera=s.camera, disparities=s.disparities, config=base.replace(soft_rounds=rounds),
+                         disparity=fat, return_details=True) for rounds in (1, 2)}
+    index = layers.plane_index(fat, s.disparities)
+    front = soft_front(res[1].stack.rgba, s.disparities, index, which=True)
+    assert (front != index).sum() > 100  # the first round moved the front...
+    np.testing.assert_array_equal(s.disparities[front], s.gt_disparity(0.5))  # ...to the truth
+    np.testing.assert_array_equal(res[1].stack.rgba, res[2].stack.rgba)
+    np.testing.assert_array_equal(res[2].disparity, fat)  # the result's map stays the one given
+    with pytest.raises(VfxStereoError, match="soft_rounds"):
+        solve(s.views, camera=s.camera, disparities=s.disparities, config=base.replace(soft_rounds=0), disparity=fat)
+
+
+@pytest.mark.data
+def test_a_second_soft_round_starts_from_the_front_the_first_left(shared_data):
+    """Hair fattened by 3 px (five views): where the first round's passes left the front off the map's planes,
+    the second round builds its volume from that front, so the stacks differ -- near the hair only."""
+    from scipy import ndimage
+
+    from vfxstereo import SolveConfig, solve
+    from vfxstereo.solver import soft_front
+
+    s, views, planes, warper, disparity, index, true_alpha, rim = _fattened_hair()
+    base = SolveConfig.preset("robust")
+    out = {rounds: solve(views, positions=s.positions, reference=s.reference, disparities=planes,
+                         config=base.replace(soft_rounds=rounds), disparity=disparity).rgba for rounds in (1, 2)}
+    moved = soft_front(out[1], planes, index)
+    assert moved.sum() > 50
+    changed = (out[1] != out[2]).any(axis=(0, 3))
+    assert changed.sum() > 50
+    near = ndimage.binary_dilation(moved | softedge._edges(index, 1), iterations=2 * base.soft_edge.radius + 2)
+    assert not (changed & ~near).any()

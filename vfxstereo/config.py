@@ -193,6 +193,28 @@ class SolveConfig:
     (:mod:`vfxstereo.softedge`, beyond the paper)."""
     soft_edge: _softedge.SoftEdgeParams = field(default_factory=_softedge.SoftEdgeParams)
     """Settings of the soft edges."""
+    soft_rounds: int = 1
+    """Robust depth with soft edges, three views or more: rounds of the layers and soft edges. Each round after
+    the first builds the initial volume again from the front surface the previous round's passes left (the
+    front-most layer with alpha > 0.5, where it moved off the map's plane) and runs the soft-edge passes on it:
+    a pixel the passes moved back becomes background for the next round's volume, z-buffers and bands, so the
+    hidden layers and the backgrounds the views see behind it follow. The result's ``disparity`` stays the
+    depth stage's map. A stereo pair always gets one round.
+
+    Added in session 49, not on by default (the evidence is mixed). Measured side by side, 2 rounds against 1
+    (z-key benchmark, frame / band dB, K = 5 rows; K = 2 rows unchanged): tuning rows (151) +0.12 / +0.17, but
+    rows losing to the SGBM key 1 / 4 -> 3 / 4 (fur_pillar_monopoly's card at d = 3.4 +0.27 -> -0.81 frame,
+    artichoke_books' hidden card at d = 4 0.0 -> -2.9 frame) and rows worse than their initial volume 35 -> 38
+    of 302 (best sheep_duck_wall's full card at d = 10.5 +8.8 / +7.7, fur_grey_wall +3.4 / +3.3 on three rows;
+    worst boards_rocks' full card at d = 11.4 -8.0 frame, duck_monster_baby -5.1 frame, sign_plant_aloe -4.5 /
+    -2.5 and -3.2 / -5.4); held-out rows (30, scored after) +0.20 / +0.20, none turning (wire_plant_laundry
+    +0.9 to +1.8, worst railing_subject_rocks -0.3). On the synthetic hair of tests/test_layers.py (GT04 over
+    a random texture or a painted wall, K = 5) the holdout's mean error on the rim gets worse in four of six
+    cases (textured background from the true depth 0.079 -> 0.091, from the depth grown by 3 px 0.078 ->
+    0.091, from the robust depth 0.106 -> 0.102; painted wall 0.048 -> 0.052, 0.049 -> 0.044, 0.040 -> 0.044).
+    Session 45 measured a first form (re-solving from the front map): K = 5 +0.28 / +0.32, held out +0.24 /
+    +0.32, K = 2 -0.11 / -0.02 -- hence one round on a pair. Each round costs the stages after the depth
+    again."""
     keep_empty_planes: bool = True
     """Robust depth only: the stack has a layer for every plane asked for. False: only the planes the depth
     map uses (the front surface's planes; hidden cells and soft edges lie on them too), so a 4096x2160 plate

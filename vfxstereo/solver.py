@@ -291,6 +291,8 @@ def solve(views, *, positions=None, reference: int | None = None, disparities, c
         timings[stage] = timings.get(stage, 0.0) + time.perf_counter() - t0
         return out
 
+    if not (isinstance(config.soft_rounds, int | np.integer) and config.soft_rounds >= 1):
+        raise VfxStereoError(f"soft_rounds must be a whole number >= 1, got {config.soft_rounds!r}")
     if config.depth == "robust":
         return _solve_robust(views, warper, camera, disparities, config, progress=progress, white=white,
                              disparity=disparity,
@@ -388,6 +390,20 @@ def solve(views, *, positions=None, reference: int | None = None, disparities, c
                        hidden=hidden, timings=timings)
 
 
+
+def soft_front(rgba: np.ndarray, disparities: np.ndarray, index: np.ndarray, planes: np.ndarray | None = None, *,
+               which: bool = False) -> np.ndarray:
+    """Where the soft edges moved the front surface (``SolveConfig.soft_rounds``).
+
+    (H, W) bool: the pixels whose front-most layer with alpha > 0.5 is not the plane ``index`` of the map they
+    started from; with ``which``, that layer's plane index into ``disparities`` (``index`` where no layer is
+    above 0.5). ``planes``: the stack's planes, where it keeps only some (None: all of ``disparities``).
+    """
+    above = rgba[..., 3] > 0.5
+    ids = np.arange(len(disparities)) if planes is None else np.asarray(planes)
+    front = np.where(above.any(axis=0), ids[len(ids) - 1 - np.argmax(above[::-1], axis=0)], index)
+    return front if which else front != index
+
 def _solve_robust(views, warper, camera, disparities, config, *, progress, white, timed, timings, return_details,
                   keep_initial, on_soft_pass=None, disparity=None):
     """``solve`` with the robust depth stage (:mod:`vfxstereo.depth`) in place of the paper's sections 4-5.
@@ -441,6 +457,22 @@ def _solve_robust(views, warper, camera, disparities, config, *, progress, white
                            progress=progress, inplace=in_place, planes=planes, white=white,
                            on_pass=on_soft_pass)
         layers.clamp(rgba, white)
+        # later rounds: the layers and soft edges again, from the front surface the passes left (the views'
+        # gains stay the first map's); the result's disparity stays the depth stage's
+        d_round, i_round = res.disparity, index
+        for _ in range((config.soft_rounds if views.shape[0] >= 3 else 1) - 1):
+            moved = soft_front(rgba, disparities, i_round, planes)
+            if not moved.any():
+                break
+            i_round = np.where(moved, soft_front(rgba, disparities, i_round, planes, which=True), i_round)
+            d_round = np.where(moved, disparities[np.maximum(i_round, 0)], d_round).astype(np.float32)
+            zbuffers = [depth.zbuffer(warper, d_round, k) for k in range(views.shape[0])]
+            rgba = timed("layers", layers.initial_volume, views, warper, ref_view, d_round, i_round,
+                         gains=gains, zbuffers=zbuffers, planes=planes, white=white)
+            rgba, _, _ = timed("soft-edges", softedge.soften_edges_passes, rgba, views, warper, ref_view,
+                               d_round, i_round, params=config.soft_edge, gains=gains, zbuffers=zbuffers,
+                               progress=progress, inplace=True, planes=planes, white=white)
+            layers.clamp(rgba, white)
     if refining:
         rgba = timed("refine", refine.refine, initial, disparities, views, warper,
                      config.refine_config(white=white), progress=progress)
