@@ -259,7 +259,18 @@ class DepthConfig:
 
     Cost: a second SGM in the last pass and one more volume (:func:`bytes_per_cell`). The depth stage at
     1920x1080 x 64 planes (K = 5, ``samples.layered_scene``), side by side, best of 2: 1.07x the time (41.9
-    against 39.2 s, on a loaded machine), peak traced memory 2.77 against 2.27 GiB. (In every pass: 1.40x.)"""
+    against 39.2 s, on a loaded machine), peak traced memory 2.77 against 2.27 GiB. (In every pass: 1.40x.)
+
+    Still needed with steps 9-19 (session 49, off against on, z-key tuning rows, frame / band dB): K = 5 -1.01 /
+    -0.22, K = 2 -0.87 / -0.52, rows losing to the SGBM key 7 / 6 -> 12 / 8 (sign_plant_aloe's sign and
+    panel_hair_books' panel go back: -15 to -36 dB on their cards). Its one known fault: boards_rocks K = 5's
+    board keeps a 25 px strip along the left frame edge at the nearest plane (too near by 3 px), which the
+    biased and the unbiased maps both put there: only the two views left of the reference see that strip at
+    the near planes, and a mean cost over fewer views reaches lower minima (the strip's cost at 12-13 px from
+    one view: -0.55, the board's own range about +-0.2). Without the guard the board goes back whole and
+    steps 13 and 17 bring it forward again, strip and all (its bad pixels 5.8 -> 2.8 %), but the other boards
+    do not come back. Shrinking the mean of fewer views towards the unseen cost (by ``n / (n + 3)``, scaled to
+    1 for all views) fixed a fifth of the strip and cost K = 5 -0.57 / -0.24 (panel_hair_books -36 dB)."""
     guard_jump: float = 2.0
     """Disparity (px per view step) by which the bias must have moved a pixel back, and by which the textured
     surface around must be farther (:func:`own_surfaces`)."""
