@@ -153,7 +153,12 @@ class SoftEdgeParams:
     8 passes 20.37 / 18.85 (trolls_art +2.1 / +0.9, plush_wall +3.7 / +1.5); with the default guard, 8 passes
     20.32 / 18.63. Moving far-side pixels whose alpha came out above 0.5 to the front as well cost tree_cloth
     0.5 dB: its far-side alphas are poor where a third surface lies between the two. Each pass rebuilds the
-    layers (numbers in the README's speed table)."""
+    layers (numbers in the README's speed table).
+
+    Fewer passes on a stereo pair only (session 49, z-key K = 2 tuning rows against 8, frame / band dB): 2
+    passes -0.03 / -0.36 (sheep_duck_wall's small cards +10 frame, two_soft_pots' +3 to +4.6, where the passes
+    eat a pale or dark subject; wicker_wall -7.0 / -6.3, tassels_room and trolls_art -2 to -3); 4 passes +0.15 /
+    -0.07, losing 6 / 2 -> 5 / 2. The band is what the passes are for, so 8 stays."""
     settle: float = 0.001
     """The passes stop when fewer than this share of the band's pixels would move."""
     relabel_confidence: float = 0.0
