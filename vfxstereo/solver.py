@@ -390,7 +390,6 @@ def solve(views, *, positions=None, reference: int | None = None, disparities, c
                        hidden=hidden, timings=timings)
 
 
-
 def soft_front(rgba: np.ndarray, disparities: np.ndarray, index: np.ndarray, planes: np.ndarray | None = None, *,
                which: bool = False) -> np.ndarray:
     """Where the soft edges moved the front surface (``SolveConfig.soft_rounds``).
@@ -403,6 +402,7 @@ def soft_front(rgba: np.ndarray, disparities: np.ndarray, index: np.ndarray, pla
     ids = np.arange(len(disparities)) if planes is None else np.asarray(planes)
     front = np.where(above.any(axis=0), ids[len(ids) - 1 - np.argmax(above[::-1], axis=0)], index)
     return front if which else front != index
+
 
 def _solve_robust(views, warper, camera, disparities, config, *, progress, white, timed, timings, return_details,
                   keep_initial, on_soft_pass=None, disparity=None):
@@ -461,11 +461,12 @@ def _solve_robust(views, warper, camera, disparities, config, *, progress, white
         # gains stay the first map's); the result's disparity stays the depth stage's
         d_round, i_round = res.disparity, index
         for _ in range((config.soft_rounds if views.shape[0] >= 3 else 1) - 1):
-            moved = soft_front(rgba, disparities, i_round, planes)
+            front = soft_front(rgba, disparities, i_round, planes, which=True)
+            moved = front != i_round
             if not moved.any():
                 break
-            i_round = np.where(moved, soft_front(rgba, disparities, i_round, planes, which=True), i_round)
-            d_round = np.where(moved, disparities[np.maximum(i_round, 0)], d_round).astype(np.float32)
+            i_round = front
+            d_round = np.where(moved, disparities[np.maximum(front, 0)], d_round).astype(np.float32)
             zbuffers = [depth.zbuffer(warper, d_round, k) for k in range(views.shape[0])]
             rgba = timed("layers", layers.initial_volume, views, warper, ref_view, d_round, i_round,
                          gains=gains, zbuffers=zbuffers, planes=planes, white=white)
