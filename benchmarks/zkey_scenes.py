@@ -270,12 +270,13 @@ JUMP_BINS = ("0-1", "1-3", "3-8", "8-16", "16+")
 
 def jump_distance_class(disparity: np.ndarray, jump: float = 1.5) -> np.ndarray:
     """Index into :data:`JUMP_BINS` of each pixel: its distance to the nearest pixel at a depth jump of
-    ``disparity`` (3 x 3 range >= ``jump``; those pixels themselves are at 0)."""
+    ``disparity`` (3 x 3 range >= ``jump``, as step 19 finds them; those pixels themselves are at 0)."""
     from scipy import ndimage
 
-    d = np.asarray(disparity, np.float32)
-    at = ndimage.maximum_filter(d, 3, mode="nearest") - ndimage.minimum_filter(d, 3, mode="nearest") >= jump
-    dist = ndimage.distance_transform_edt(~at) if at.any() else np.full(d.shape, np.inf)
+    from vfxstereo.depth_plate import _rim_sides
+
+    at = _rim_sides(np.asarray(disparity, np.float32), jump)[1]
+    dist = ndimage.distance_transform_edt(~at) if at.any() else np.full(at.shape, np.inf)
     return np.digitize(dist, [1.0, 3.0, 8.0, 16.0]).astype(np.int8)
 
 

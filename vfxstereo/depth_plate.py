@@ -1139,8 +1139,8 @@ def plain_pixels(colour: np.ndarray, plain: float = 3.0) -> np.ndarray:
     textured only across the baseline (wood grain along a horizontal rig, which matching cannot place) counts
     as plain: beanie_grille K = 5's grained floor cell behind the grille, at the bars' depth, became 90 % plain
     but no step moved it (its colour spread is wider than the steps' colour tests); z-key tuning rows K = 5
-    -0.14 / -0.09 dB, K = 2 -0.28 / -0.14. Separately, widening steps 14 and 15's colour test to a region's own spread
-    (its 0.9 quantile): K = 5 +0.02 / +0.02, K = 2 -0.02 / -0.01, rows losing 7 / 6 -> 10 / 8.
+    -0.14 / -0.09 dB, K = 2 -0.28 / -0.14. Separately, widening steps 14 and 15's colour test to a region's own
+    spread (its 0.9 quantile): K = 5 +0.02 / +0.02, K = 2 -0.02 / -0.01, rows losing 7 / 6 -> 10 / 8.
     """
     return local_deviation(np.asarray(colour, np.float32).mean(axis=-1) * 255.0, 5) < plain
 

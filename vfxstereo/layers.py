@@ -198,6 +198,15 @@ def hidden_volume(views: np.ndarray, warper, reference: int, disparity: np.ndarr
     return vol
 
 
+def topmost(mask: np.ndarray, fallback: np.ndarray) -> np.ndarray:
+    """The front-most layer where ``mask`` holds.
+
+    (H, W): the index of the last layer along axis 0 of ``mask`` (D, H, W) where it holds, or ``fallback`` where
+    it holds on none.
+    """
+    return np.where(mask.any(axis=0), mask.shape[0] - 1 - np.argmax(mask[::-1], axis=0), fallback)
+
+
 def initial_volume(views: np.ndarray, warper, reference: int, disparity: np.ndarray, index: np.ndarray, *,
                    gains: np.ndarray | None = None, zbuffers: list[np.ndarray] | None = None,
                    planes: np.ndarray | None = None, white: float = 1.0,

@@ -85,6 +85,7 @@ import numpy as np
 from scipy import ndimage
 
 from vfxstereo.errors import VfxStereoError
+from vfxstereo.layers import topmost
 from vfxstereo.progress import Progress, report
 
 EMPTY_ALPHA = 0.02
@@ -287,11 +288,6 @@ def _window(radius: int) -> np.ndarray:
     return np.ones((2 * radius + 1, 2 * radius + 1), bool)
 
 
-def _topmost(mask: np.ndarray, fallback: np.ndarray) -> np.ndarray:
-    D = mask.shape[0]
-    return np.where(mask.any(0), D - 1 - np.argmax(mask[::-1], axis=0), fallback)
-
-
 def edge_band(rgba: np.ndarray, *, radius: int = RADIUS) -> EdgeBand:
     """The soft-edge band of a volume and, per pixel, the front and back planes to matte between.
 
@@ -316,8 +312,8 @@ def edge_band(rgba: np.ndarray, *, radius: int = RADIUS) -> EdgeBand:
     for i in range(alpha.shape[0] - 1, -1, -1):  # Eq. (7): visible contribution of each layer
         weights[i] = alpha[i] * transmit
         transmit = transmit * (1.0 - alpha[i])
-    surface = _topmost(alpha > SOLID_ALPHA, np.argmax(weights, axis=0))
-    soft = _topmost(alpha > EMPTY_ALPHA, surface)
+    surface = topmost(alpha > SOLID_ALPHA, np.argmax(weights, axis=0))
+    soft = topmost(alpha > EMPTY_ALPHA, surface)
     if radius > 0:
         front = ndimage.grey_dilation(soft, footprint=_window(radius))
         back = ndimage.grey_erosion(surface, footprint=_window(radius))

@@ -398,9 +398,13 @@ def soft_front(rgba: np.ndarray, disparities: np.ndarray, index: np.ndarray, pla
     started from; with ``which``, that layer's plane index into ``disparities`` (``index`` where no layer is
     above 0.5). ``planes``: the stack's planes, where it keeps only some (None: all of ``disparities``).
     """
-    above = rgba[..., 3] > 0.5
-    ids = np.arange(len(disparities)) if planes is None else np.asarray(planes)
-    front = np.where(above.any(axis=0), ids[len(ids) - 1 - np.argmax(above[::-1], axis=0)], index)
+    from vfxstereo.layers import topmost
+
+    if planes is None:
+        front = topmost(rgba[..., 3] > 0.5, index)
+    else:
+        layer = topmost(rgba[..., 3] > 0.5, -1)
+        front = np.where(layer >= 0, np.asarray(planes)[np.maximum(layer, 0)], index)
     return front if which else front != index
 
 
@@ -469,7 +473,7 @@ def _solve_robust(views, warper, camera, disparities, config, *, progress, white
             d_round = np.where(moved, disparities[np.maximum(front, 0)], d_round).astype(np.float32)
             zbuffers = [depth.zbuffer(warper, d_round, k) for k in range(views.shape[0])]
             rgba = timed("layers", layers.initial_volume, views, warper, ref_view, d_round, i_round,
-                         gains=gains, zbuffers=zbuffers, planes=planes, white=white)
+                         gains=gains, zbuffers=zbuffers, planes=planes, white=white, out=rgba)  # no second volume
             rgba, _, _ = timed("soft-edges", softedge.soften_edges_passes, rgba, views, warper, ref_view,
                                d_round, i_round, params=config.soft_edge, gains=gains, zbuffers=zbuffers,
                                progress=progress, inplace=True, planes=planes, white=white)
