@@ -190,7 +190,7 @@ def test_soft_edge_settings_that_cannot_work_are_refused():
     from vfxstereo.errors import VfxStereoError
 
     for bad in ({"radius": 0}, {"dilate": -1}, {"fill_sigma": -1.0}, {"fill_sigma": float("nan")}, {"snap": 0.5},
-                {"reach": -1}, {"relabel_floor": -0.1},
+                {"snap_clear": 0.5}, {"snap_clear": -0.1}, {"reach": -1}, {"relabel_floor": -0.1},
                 {"relabel_radius": -1}, {"middle": -1}, {"min_separation": -0.1}, {"separation_floor": 0.0},
                 {"back": "nearest"},
                 {"separation_where": "anywhere"}, {"through": -0.01}, {"through": float("nan")},
@@ -678,7 +678,7 @@ def test_the_laplacian_step_solves_levins_closed_form_with_the_estimates_as_data
     """laplacian_matte against a dense solve with the plain Laplacian: min a^T L a + sum lambda (a - est)^2, the
     pixels outside the matted strip known (1 on or before the front plane, else 0)."""
     plate, index, info, true_alpha, est = _laplacian_case(rng)
-    p = softedge.SoftEdgeParams(laplacian=0.5, laplacian_eps=1e-4, snap=0.0)
+    p = softedge.SoftEdgeParams(laplacian=0.5, laplacian_eps=1e-4, snap=0.0, snap_clear=0.0)
     ours = softedge.laplacian_matte(info, plate, index, p)
     L = _levin_laplacian(np.sqrt(plate.astype(np.float64)), 1e-4)
     u = info.band.ravel()
@@ -695,7 +695,7 @@ def test_the_laplacian_step_solves_levins_closed_form_with_the_estimates_as_data
 
 def test_the_laplacian_step_in_tiles_matches_one_solve(rng, monkeypatch):
     plate, index, info, _, _ = _laplacian_case(rng, 40, 16)
-    p = softedge.SoftEdgeParams(laplacian=0.5, snap=0.0)
+    p = softedge.SoftEdgeParams(laplacian=0.5, snap=0.0, snap_clear=0.0)
     whole = softedge.laplacian_matte(info, plate, index, p)
     monkeypatch.setattr(softedge, "LAPLACIAN_TILE", 12)
     monkeypatch.setattr(softedge, "LAPLACIAN_MARGIN", 8)
@@ -744,7 +744,7 @@ def test_the_laplacian_step_solves_each_group_of_front_planes_on_its_own(rng):
     or in front of the group's farthest front plane), against a dense solve of exactly that; one field instead
     pulls the clear group towards the solid one."""
     plate, index, info, front, est = _two_group_case(rng)
-    p = softedge.SoftEdgeParams(laplacian=0.5, laplacian_eps=1e-4, snap=0.0)
+    p = softedge.SoftEdgeParams(laplacian=0.5, laplacian_eps=1e-4, snap=0.0, snap_clear=0.0)
     ours = softedge.laplacian_matte(info, plate, index, p, jump=2)
     L = _levin_laplacian(np.sqrt(plate.astype(np.float64)), 1e-4)
     matted = info.band.ravel()
@@ -764,9 +764,8 @@ def test_the_laplacian_step_solves_each_group_of_front_planes_on_its_own(rng):
     one_field = softedge.laplacian_matte(info, plate, index, p)  # jump 0: a single field, as before
     # measured 0 and 0.43
     assert ours[clear].max() < 0.05 and one_field[clear].max() > 0.3, (ours[clear].max(), one_field[clear].max())
-    off = softedge.laplacian_matte(info, plate, index, softedge.SoftEdgeParams(laplacian=0.5, laplacian_eps=1e-4,
-                                                                               snap=0.0, laplacian_groups=False),
-                                   jump=2)
+    off = softedge.laplacian_matte(info, plate, index, softedge.SoftEdgeParams(
+        laplacian=0.5, laplacian_eps=1e-4, snap=0.0, snap_clear=0.0, laplacian_groups=False), jump=2)
     np.testing.assert_array_equal(off, one_field)
 
 
@@ -789,7 +788,7 @@ def test_the_laplacian_step_leaves_far_side_pixels_beside_a_jump_that_only_the_l
     on the near side), against a dense solve of exactly that; their alpha then follows the colour lines to the
     eroded part of the edge (true alpha 0.33-0.67) instead of the label's 0."""
     plate, index, info, true_alpha, col = _eroded_edge_case(rng)
-    p = softedge.SoftEdgeParams(laplacian=0.5, laplacian_eps=1e-4, snap=0.0)
+    p = softedge.SoftEdgeParams(laplacian=0.5, laplacian_eps=1e-4, snap=0.0, snap_clear=0.0)
     assert p.laplacian_free == 2  # the default
     ours = softedge.laplacian_matte(info, plate, index, p, jump=1)
     L = _levin_laplacian(np.sqrt(plate.astype(np.float64)), 1e-4)
@@ -836,8 +835,9 @@ def test_the_laplacian_step_keeps_what_the_views_settle(rng):
     colours (boards_rocks: a board's alpha 0.56 on rocks 8 px from its edge). The other pixels are
     solved as before: they are not pulled towards the settled ones."""
     plate, index, info, col = _spill_case(rng)
-    ours = softedge.laplacian_matte(info, plate, index, softedge.SoftEdgeParams(laplacian_sure=0.1, snap=0.05))
-    off = softedge.laplacian_matte(info, plate, index, softedge.SoftEdgeParams(laplacian_sure=0.0, snap=0.05))
+    p = {"snap": 0.05, "snap_clear": 0.05}
+    ours = softedge.laplacian_matte(info, plate, index, softedge.SoftEdgeParams(laplacian_sure=0.1, **p))
+    off = softedge.laplacian_matte(info, plate, index, softedge.SoftEdgeParams(laplacian_sure=0.0, **p))
     c = col[info.band]
     settled = c <= 9  # the near side solid, the far side clear; not column 10 (a plain background) nor 11 (the
     # estimates disagree)
@@ -902,6 +902,35 @@ def test_views_whose_ray_meets_a_third_surface_do_not_matte_the_edge():
                       float(info.estimates["views"][clear[~np.isnan(info.alpha)]].mean()))
     assert got[False][0] > 0.04 and got[False][1] > 0.05, got  # measured 0.084, 0.094
     assert got[True][0] < 0.01 and got[True][1] < 0.01, got  # measured 0.0001, 0.0005
+
+
+@pytest.mark.data
+def test_the_haze_a_grille_leaves_over_what_lies_behind_it_is_cleared(shared_data):
+    """From the true depth, the soft edges leave some of the pixels between a grille's bars a little covered by
+    the grille (0.05-0.1: the estimates' noise, the matting Laplacian's spill), and a card behind it shows a haze
+    of bars. Alphas below ``snap_clear`` become 0: at 0.1 (the default) fewer than 0.7 times as many of them are
+    hazed as at 0.05 (measured 156 against 282 of 4020), and the mean haze falls; the price, on a fattened hair
+    rim, is sparse hair ends made clear: its RMS error rises by less than 5 % (measured 0.127 -> 0.131)."""
+    s = _grille_card_wall()
+    planes = np.arange(0.0, 9.5, 0.5)
+    warper = Warper(Camera.from_positions(s.positions, s.reference), planes, s.shape)
+    truth = s.gt_disparity(0.5).astype(np.float32)
+    index = layers.plane_index(truth, planes)
+    views = s.views()
+    grille_alpha = s.split(6.0)[0][..., 3]
+    hazed, haze = {}, {}
+    for snap_clear in (0.05, 0.1):
+        vol = layers.initial_volume(views, warper, 2, truth, index, white=1.0)
+        out, info, _ = softedge.soften_edges_passes(vol, views, warper, 2, truth, index, white=1.0,
+                                                    params=softedge.SoftEdgeParams(snap_clear=snap_clear))
+        hold = 1.0 - np.prod(1.0 - out[planes > 6.0, ..., 3], axis=0)  # the grille's cover over the card
+        clear = info.band & (grille_alpha == 0)
+        assert clear.sum() > 2000
+        hazed[snap_clear], haze[snap_clear] = int((hold[clear] > 0).sum()), float(hold[clear].mean())
+    assert hazed[0.1] < 0.7 * hazed[0.05] and haze[0.1] < haze[0.05], (hazed, haze)
+    hair = {c: _fattened_hair_rms(softedge.SoftEdgeParams(snap_clear=c))[0] for c in (0.05, 0.1)}
+    assert hair[0.1] < 1.05 * hair[0.05], hair
+    assert softedge.SoftEdgeParams().snap_clear == 0.1
 
 
 def test_a_rim_fattened_beside_a_nearer_grille_goes_back_through_its_middle_matte():
