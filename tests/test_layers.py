@@ -875,6 +875,16 @@ def _grille_card_wall():
         gains=np.ones(5))
 
 
+def _grille_card_wall_solved():
+    """:func:`_grille_card_wall` with its planes (0-9 by 0.5), warper, true depth and plane index, views and the
+    grille's own alpha."""
+    s = _grille_card_wall()
+    planes = np.arange(0.0, 9.5, 0.5)
+    warper = Warper(Camera.from_positions(s.positions, s.reference), planes, s.shape)
+    truth = s.gt_disparity(0.5).astype(np.float32)
+    return s, planes, warper, truth, layers.plane_index(truth, planes), s.views(), s.split(6.0)[0][..., 3]
+
+
 def test_views_whose_ray_meets_a_third_surface_do_not_matte_the_edge():
     """The multi-view estimate assumes that view k sees the back surface through the front point. Beside the card,
     some views' rays from a point of the grille's plane down to the wall meet the card first: they see the card,
@@ -882,13 +892,7 @@ def test_views_whose_ray_meets_a_third_surface_do_not_matte_the_edge():
     grille. With those views left out (``third_surface``, from their z-buffer), the pixels stay clear."""
     from scipy import ndimage
 
-    s = _grille_card_wall()
-    planes = np.arange(0.0, 9.5, 0.5)
-    warper = Warper(Camera.from_positions(s.positions, s.reference), planes, s.shape)
-    truth = s.gt_disparity(0.5).astype(np.float32)
-    index = layers.plane_index(truth, planes)
-    views = s.views()
-    grille_alpha = s.split(6.0)[0][..., 3]
+    s, planes, warper, truth, index, views, grille_alpha = _grille_card_wall_solved()
     card = truth == 4.0
     beside = ndimage.binary_dilation(card, structure=np.ones((1, 17), bool)) & ~card  # within 8 px of its sides
     got = {}
@@ -911,13 +915,7 @@ def test_the_haze_a_grille_leaves_over_what_lies_behind_it_is_cleared(shared_dat
     of bars. Alphas below ``snap_clear`` become 0: at 0.1 (the default) fewer than 0.7 times as many of them are
     hazed as at 0.05 (measured 156 against 282 of 4020), and the mean haze falls; the price, on a fattened hair
     rim, is sparse hair ends made clear: its RMS error rises by less than 5 % (measured 0.127 -> 0.131)."""
-    s = _grille_card_wall()
-    planes = np.arange(0.0, 9.5, 0.5)
-    warper = Warper(Camera.from_positions(s.positions, s.reference), planes, s.shape)
-    truth = s.gt_disparity(0.5).astype(np.float32)
-    index = layers.plane_index(truth, planes)
-    views = s.views()
-    grille_alpha = s.split(6.0)[0][..., 3]
+    s, planes, warper, truth, index, views, grille_alpha = _grille_card_wall_solved()
     hazed, haze = {}, {}
     for snap_clear in (0.05, 0.1):
         vol = layers.initial_volume(views, warper, 2, truth, index, white=1.0)
