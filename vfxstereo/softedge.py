@@ -54,6 +54,7 @@ import numpy as np
 from scipy import ndimage
 
 from vfxstereo.errors import VfxStereoError
+from vfxstereo.layers import topmost
 from vfxstereo.progress import Progress, report
 from vfxstereo.warp import plane_step
 
@@ -727,7 +728,8 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     # back plane of a near-side pixel: its nearest hidden cell behind it, else (below) the one ``p.back`` picks
     hidden = volume[..., 3] > 0.5
     hidden &= held[:, None, None] < index[None]
-    nearest_hidden = np.where(hidden.any(axis=0), held[len(held) - 1 - np.argmax(hidden[::-1], axis=0)], -1)
+    top = topmost(hidden, -1)
+    nearest_hidden = np.where(top >= 0, held[np.maximum(top, 0)], -1)
     del hidden
     b_plane = np.where(far_side, index, np.where(nearest_hidden >= 0, nearest_hidden, fmin)).astype(np.int32)
     ys, xs = np.nonzero(matted)

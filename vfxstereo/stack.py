@@ -238,12 +238,10 @@ class LayerStack:
             with np.errstate(invalid="ignore", divide="ignore"):
                 out = np.where(total > 1e-6, num / np.where(total > 1e-6, total, 1.0), np.nan)
             return out.astype(np.float32)
-        above = self.rgba[..., 3] > threshold  # (D, H, W)
-        any_above = above.any(axis=0)
-        front = self.depth - 1 - np.argmax(above[::-1], axis=0)
-        out = self.disparities[front].astype(np.float32)
-        out[~any_above] = np.nan
-        return out
+        from vfxstereo.layers import topmost
+
+        front = topmost(self.rgba[..., 3] > threshold, -1)
+        return np.where(front >= 0, self.disparities[np.maximum(front, 0)], np.nan).astype(np.float32)
 
     def alpha_coverage(self) -> np.ndarray:
         """Mean alpha of each layer over the frame, shape (D,): how much of the picture each layer holds."""

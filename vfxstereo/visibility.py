@@ -28,6 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from vfxstereo.errors import VfxStereoError
+from vfxstereo.layers import topmost
 
 
 def _check_warped(warped: np.ndarray, channels: int | None = 4, name: str = "warped") -> np.ndarray:
@@ -118,9 +119,7 @@ def simple_visibility(warped_alpha: np.ndarray, *, threshold: float = 0.5) -> np
     a = _check_warped(warped_alpha, channels=None, name="warped_alpha")
     dtype = a.dtype if np.issubdtype(a.dtype, np.floating) else np.float32
     D = a.shape[0]
-    opaque = a >= threshold
-    any_opaque = opaque.any(axis=0)
-    d_top = np.where(any_opaque, D - 1 - np.argmax(opaque[::-1], axis=0), 0)  # topmost opaque layer
+    d_top = topmost(a >= threshold, 0)  # the topmost opaque layer
     return (np.arange(D)[:, None, None] >= d_top[None]).astype(dtype)
 
 
