@@ -198,13 +198,14 @@ def hidden_volume(views: np.ndarray, warper, reference: int, disparity: np.ndarr
     return vol
 
 
-def topmost(mask: np.ndarray, fallback: np.ndarray) -> np.ndarray:
+def topmost(mask: np.ndarray, fallback, values=None) -> np.ndarray:
     """The front-most layer where ``mask`` holds.
 
-    (H, W): the index of the last layer along axis 0 of ``mask`` (D, H, W) where it holds, or ``fallback`` where
-    it holds on none.
+    (H, W): the index of the last layer along axis 0 of ``mask`` (D, H, W) where it holds -- or, with ``values``
+    (D,), that layer's entry of it (its plane, its disparity) -- and ``fallback`` where it holds on none.
     """
-    return np.where(mask.any(axis=0), mask.shape[0] - 1 - np.argmax(mask[::-1], axis=0), fallback)
+    layer = mask.shape[0] - 1 - np.argmax(mask[::-1], axis=0)
+    return np.where(mask.any(axis=0), layer if values is None else np.asarray(values)[layer], fallback)
 
 
 def initial_volume(views: np.ndarray, warper, reference: int, disparity: np.ndarray, index: np.ndarray, *,

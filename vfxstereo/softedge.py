@@ -728,8 +728,7 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     # back plane of a near-side pixel: its nearest hidden cell behind it, else (below) the one ``p.back`` picks
     hidden = volume[..., 3] > 0.5
     hidden &= held[:, None, None] < index[None]
-    top = topmost(hidden, -1)
-    nearest_hidden = np.where(top >= 0, held[np.maximum(top, 0)], -1)
+    nearest_hidden = topmost(hidden, -1, held)
     del hidden
     b_plane = np.where(far_side, index, np.where(nearest_hidden >= 0, nearest_hidden, fmin)).astype(np.int32)
     ys, xs = np.nonzero(matted)
@@ -866,7 +865,7 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     wv_ = p.w_views * var_b
     wc_ = np.where(have_c, p.w_colour * sep / (1.0 + resid / p.residual_scale), 0.0)
     alpha = (wv_ * a_views + wc_ * np.where(have_c, a_colour, 0.0) + p.w_prior * prior) / (wv_ + wc_ + p.w_prior)
-    alpha = np.where(alpha < p.snap_clear, 0.0, np.where(alpha > 1.0 - p.snap, 1.0, alpha)).astype(np.float32)
+    alpha = _snapped(alpha, p)
     if outer_px is not None:  # an outer pixel whose background is not plain stays
         alpha = np.where(outer_px & ~known, np.float32(1.0), alpha)
     # write the band's cells
@@ -1121,7 +1120,12 @@ def laplacian_matte(info: SoftEdges, plate: np.ndarray, index: np.ndarray, p: So
         sure = (info.confidence[ys, xs] >= p.laplacian_sure) & (alpha == np.round(a_v))
         out[sure & far & (a_v <= p.snap)] = 0.0
         out[sure & ~far & (a_v >= 1.0 - p.snap)] = 1.0
-    return np.where(out < p.snap_clear, 0.0, np.where(out > 1.0 - p.snap, 1.0, out)).astype(np.float32)
+    return _snapped(out, p)
+
+
+def _snapped(alpha: np.ndarray, p: SoftEdgeParams) -> np.ndarray:
+    """``alpha`` (float32) with values below ``p.snap_clear`` made 0 and those within ``p.snap`` of 1 made 1."""
+    return np.where(alpha < p.snap_clear, 0.0, np.where(alpha > 1.0 - p.snap, 1.0, alpha)).astype(np.float32)
 
 
 def relabel(disparity: np.ndarray, index: np.ndarray, info: SoftEdges, disparities: np.ndarray,

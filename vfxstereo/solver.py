@@ -400,11 +400,7 @@ def soft_front(rgba: np.ndarray, disparities: np.ndarray, index: np.ndarray, pla
     """
     from vfxstereo.layers import topmost
 
-    if planes is None:
-        front = topmost(rgba[..., 3] > 0.5, index)
-    else:
-        layer = topmost(rgba[..., 3] > 0.5, -1)
-        front = np.where(layer >= 0, np.asarray(planes)[np.maximum(layer, 0)], index)
+    front = topmost(rgba[..., 3] > 0.5, index, planes)
     return front if which else front != index
 
 

@@ -240,8 +240,7 @@ class LayerStack:
             return out.astype(np.float32)
         from vfxstereo.layers import topmost
 
-        front = topmost(self.rgba[..., 3] > threshold, -1)
-        return np.where(front >= 0, self.disparities[np.maximum(front, 0)], np.nan).astype(np.float32)
+        return topmost(self.rgba[..., 3] > threshold, np.nan, self.disparities).astype(np.float32)
 
     def alpha_coverage(self) -> np.ndarray:
         """Mean alpha of each layer over the frame, shape (D,): how much of the picture each layer holds."""
