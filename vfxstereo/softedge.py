@@ -398,7 +398,25 @@ class SoftEdgeParams:
     Scored once after the choice, with ``third_surface`` (both on against both off): the two scenes built for it and
     held out, railing_subject_rocks +0.26 / +0.14 (K = 5) and +0.05 / -0.01 (K = 2), wicker_grille_dolls -0.08 /
     -0.04 and -0.05 / -0.03; Middlebury's held-out views, 8 sets, 38.39 -> 38.40 dB (tsukuba 33.97 -> 34.03, Midd2
-    39.12 -> 39.08)."""
+    39.12 -> 39.08).
+    The pixels outside the matted set are known for a group by the same rule (covered on or in front of its farthest
+    front plane), except those more than ``jump`` planes behind the nearest matted pixel's front, which stay
+    uncovered (session 51). They were known by that nearest front alone, which belongs to another group as often as
+    not: a plain board whose depth map has a bump a jump nearer (a false edge inside the board, front 13.5 over 12.5)
+    had its interior beside the bump counted uncovered for the board's own edge (front 12.5), and the field held the
+    whole edge at alpha 0.3-0.8 (rabbit_cream_board K = 5, the card behind everything: 34.7 dB on the band, 150 from
+    the initial volume); rocks the map put at a board's depth counted covered for the board in front of both
+    (boards_rocks K = 2). Measured (z-key, all 362 rows, frame / band dB against the nearest front alone): tuning
+    K = 5 +0.14 / +0.08, K = 2 +0.28 / +0.26; held out +0.16 / +0.02 and +0.09 / +0.01; rows losing to the SGBM key
+    9 / 7 -> 9 / 6 (rabbit_cream_board K = 2 and 5 +14.7 / +12.1 and +6.4 / +8.2, boards_rocks K = 2 +6.8 / +8.6;
+    worst duck_monster_baby K = 2 -1.4 frame, a wall the map put 1.4 px too near). Tried and not kept: the rule
+    without the jump limit, +0.11 / +0.01 and +0.28 / +0.26 on the tuning rows (fur_pillar_monopoly K = 5 -11.9 /
+    -5.5: a group chained down to the board behind the bear counted that board covered); the limit's pixels
+    covered besides those the nearest front covers (+0.12 / +0.05, +0.06 / +0.00); regrouping pixels whose back
+    lies on or before their group's farthest front (the nested false edges) so that each field means one surface's
+    coverage, -0.17 / +0.15 on the K = 5 / K = 2 band (grilles -2 to -4 dB: the bars, now known covered for the
+    subject behind them, carry their alpha along colour lines onto its pixels); leaving those pixels out of the
+    solve, -0.19 / -0.10 (band, K = 5 / K = 2)."""
     thin_samples: bool = True
     """Where no solid foreground sample (a pixel of the front plane at least 3 px from any depth jump) lies within
     ``search`` px in any of the colour model's 8 directions, the samples are the front plane's pixels that are not
@@ -1043,7 +1061,8 @@ def laplacian_matte(info: SoftEdges, plate: np.ndarray, index: np.ndarray, p: So
     pixel, else 0.
     With ``p.laplacian_groups`` and ``jump`` > 0, the matted pixels are split into groups of front planes less
     than ``jump`` apart, each solved on its own with the other groups' pixels known: 1 where their surface
-    (``index``) lies on or in front of the group's farthest front plane, else 0.
+    (``index``) lies on or in front of the group's farthest front plane, else 0; so are the pixels outside the
+    matted set, but those more than ``jump`` planes behind the nearest matted pixel's front stay 0.
     Solved in tiles (:data:`LAPLACIAN_TILE`) by conjugate gradients with an incomplete Cholesky preconditioner
     (``pymatting.cg``, ``pymatting.ichol``). Afterwards the pixels the views settle (``p.laplacian_sure``) get
     their estimate back: 0 on the far side, 1 on the near side.
@@ -1067,12 +1086,17 @@ def laplacian_matte(info: SoftEdges, plate: np.ndarray, index: np.ndarray, p: So
             lam = np.where(bare & beside, lam * LAPLACIAN_FREE_WEIGHT, lam)
     front = np.where(matted, info.front, -1)
     near = ndimage.distance_transform_edt(~matted, return_distances=False, return_indices=True)
-    known = (index >= front[near[0], near[1]]).astype(np.float64)
+    nearest_front = front[near[0], near[1]]
     del near
     # one alpha field per group of front planes (planes less than ``jump`` apart chain into one group)
     group = np.zeros(matted.shape, np.int64)
     farthest = np.zeros(1, np.int64)  # per group: its farthest front plane (the lowest)
-    if p.laplacian_groups and jump > 0:
+    grouped = p.laplacian_groups and jump > 0
+    # outside the matted pixels: covered on or in front of the nearest matted pixel's front plane; with groups,
+    # on or in front of the group's farthest front plane and at most a jump behind that nearest front
+    known = (index >= (nearest_front - jump if grouped else nearest_front)).astype(np.float64)
+    del nearest_front
+    if grouped:
         fronts = np.unique(front[matted])  # ascending: a group starts at its farthest plane
         starts = np.concatenate([[True], np.diff(fronts) >= jump])
         group[matted] = (np.cumsum(starts) - 1)[np.searchsorted(fronts, front[matted])]
@@ -1099,8 +1123,10 @@ def laplacian_matte(info: SoftEdges, plate: np.ndarray, index: np.ndarray, p: So
             matted_t, inner = matted_t.ravel(), inner.ravel()
             for g in np.unique(group_t[matted_t & inner]):
                 u = matted_t & (group_t == g)
-                # the other groups' pixels are known for this one: covered where their surface is on or before it
-                kn = np.where(matted_t, index_t >= farthest[g], known_t)
+                # the other groups' pixels are known for this one: covered where their surface is on or before it;
+                # so are the pixels outside, unless more than a jump lies between them and the nearest front
+                covered = index_t >= farthest[g]
+                kn = np.where(matted_t, covered, covered * known_t if grouped else known_t)
                 Lu = L[u]
                 j = pos_t[u]
                 A = (Lu[:, u] + sp.diags(lam[j])).tocsr()
