@@ -273,9 +273,9 @@ def jump_distance_class(disparity: np.ndarray, jump: float = 1.5) -> np.ndarray:
     ``disparity`` (3 x 3 range >= ``jump``, as step 19 finds them; those pixels themselves are at 0)."""
     from scipy import ndimage
 
-    from vfxstereo.depth_plate import _rim_sides
+    from vfxstereo.depth_plate import rim_sides
 
-    at = _rim_sides(np.asarray(disparity, np.float32), jump)[1]
+    at = rim_sides(np.asarray(disparity, np.float32), jump)[1]
     dist = ndimage.distance_transform_edt(~at) if at.any() else np.full(at.shape, np.inf)
     return np.digitize(dist, [1.0, 3.0, 8.0, 16.0]).astype(np.int8)
 

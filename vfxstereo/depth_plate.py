@@ -484,8 +484,11 @@ def reopen_by_colour(disparity: np.ndarray, colour: np.ndarray, *, radius: int =
     return np.where(move, target, d).astype(np.float32), move
 
 
-def _rim_sides(d: np.ndarray, jump: float) -> tuple[np.ndarray, np.ndarray]:
-    """The 3 x 3 minimum of ``d`` and the pixels at a jump (3 x 3 range >= ``jump``): step 19's inputs."""
+def rim_sides(d: np.ndarray, jump: float) -> tuple[np.ndarray, np.ndarray]:
+    """The 3 x 3 minimum of ``d`` and the pixels at a jump (3 x 3 range >= ``jump``): step 19's inputs.
+
+    The z-key benchmark measures its errors' distance to a depth jump from the same pixels.
+    """
     from scipy import ndimage
 
     lo = ndimage.minimum_filter(d, size=3, mode="nearest")
@@ -510,7 +513,7 @@ def rim_colours(disparity: np.ndarray, colour: np.ndarray, *, ratio: float = 3.0
     c = np.ascontiguousarray(colour, np.float32)
     d = before
     for _ in range(passes):
-        lo, edge = _rim_sides(d, jump)
+        lo, edge = rim_sides(d, jump)
         out = np.empty_like(d)
         _depth_kernels.rim_colours(d, lo, edge, c, np.float32(jump), np.float32(tolerance), float(ratio),
                                    int(radius), int(least), out)
@@ -528,7 +531,7 @@ def rim_colours_reference(disparity: np.ndarray, colour: np.ndarray, *, ratio: f
     c = np.asarray(colour, np.float64)
     d = before.copy()
     for _ in range(passes):
-        lo, edge = _rim_sides(d, jump)
+        lo, edge = rim_sides(d, jump)
         new = d.copy()
         for y, x in zip(*np.nonzero(d - lo >= jump), strict=True):
             f, b = d[y, x], lo[y, x]
