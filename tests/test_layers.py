@@ -784,6 +784,7 @@ def _bumpy_board_case(rng, h=12, w=18):
     front = np.where(col < 6, 6, 4)
     est = np.where((col >= 8) & (col < 12), 1.0, 0.0)
     info = _matted(matted, est, front, np.where(col < 6, 0.01, 1.0)[matted])
+    info.back = np.where(matted, np.where(col < 6, 4, 0), -1).astype(np.int32)  # the bump's far side: the board
     return plate, index, info, col
 
 
@@ -793,7 +794,8 @@ def test_the_laplacian_step_counts_a_surface_within_a_jump_of_the_nearest_front_
     map puts an edge between them). The board's pixels beside the bump's false edge (columns 6-7, nearest front
     6, surface 4) are the board: covered for the board's own edge (front 4), which then stays solid. Counted by
     the nearest front alone (uncovered: 4 < 6) they held the board's alpha down (rabbit_cream_board K = 5, the card
-    behind everything: 34.7 dB on the band)."""
+    behind everything: 34.7 dB on the band). The bump's own far side (columns 2-5, back on the board) is covered for
+    the group too, whatever its alpha over the board: it feeds the field 1 and keeps its own estimate."""
     plate, index, info, col = _bumpy_board_case(rng)
     p = softedge.SoftEdgeParams(laplacian=0.5, laplacian_eps=1e-4, snap=0.0, snap_clear=0.0)
     ours = softedge.laplacian_matte(info, plate, index, p, jump=3)  # fronts 4 and 6: one group, farthest 4
@@ -803,8 +805,12 @@ def test_the_laplacian_step_counts_a_surface_within_a_jump_of_the_nearest_front_
     w = info.estimates["weight"].astype(np.float64)
     lam = 0.5 * np.clip(w / np.median(w), 0.1, 10)
     known = (index.ravel() >= 4).astype(np.float64)[~u]  # the board (bump included) covered, the wall not
-    ref = np.clip(np.linalg.solve(L[np.ix_(u, u)] + np.diag(lam),
-                                  lam * info.alpha.ravel()[u] - L[np.ix_(u, ~u)] @ known), 0, 1)
+    # the bump's far side lies on the board, covered for the group whatever its alpha: it feeds the field 1 and
+    # keeps its estimate (0: the bump does not cover it)
+    nested = (c < 6)[u]
+    data = np.where(nested, 1.0, info.alpha.ravel()[u])
+    ref = np.clip(np.linalg.solve(L[np.ix_(u, u)] + np.diag(lam), lam * data - L[np.ix_(u, ~u)] @ known), 0, 1)
+    ref[nested] = info.alpha.ravel()[u][nested]
     assert np.abs(ours - ref).max() < 1e-3, np.abs(ours - ref).max()
     edge = ((c >= 8) & (c < 12))[u]
     wall = (c >= 12)[u]
