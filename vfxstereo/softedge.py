@@ -423,7 +423,9 @@ class SoftEdgeParams:
     estimate, 0 on a false edge's far side, dragged the field down around them). Against the rule above, all 362 rows:
     tuning K = 5 +0.26 / +0.08, K = 2 +0.09 / +0.02, held out +0.00 / +0.00 and -0.01 / -0.01
     (rabbit_cream_board K = 5 full card +15.0 / +8.7, sign_plant_aloe K = 5 full card +9.3 / -2.6, sheep_duck_wall
-    K = 5 +2.5 frame; worst witch_monster K = 2 card at d = 12 -0.94 / +0.07); no row turned."""
+    K = 5 +2.5 frame; worst witch_monster K = 2 card at d = 12 -0.94 / +0.07); against the SGBM key one row turned
+    each way (panel_hair_books K = 2's card at d = 3 now wins, two_soft_pots K = 2's full card at d = 3 loses the
+    frame by 0.07)."""
     thin_samples: bool = True
     """Where no solid foreground sample (a pixel of the front plane at least 3 px from any depth jump) lies within
     ``search`` px in any of the colour model's 8 directions, the samples are the front plane's pixels that are not
