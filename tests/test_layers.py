@@ -367,8 +367,11 @@ def _holed_square_scene(textured_wall=False, hole=True):
 
     rng = np.random.default_rng(3)
     canvas = (72 + 2 * 16, 96 + 2 * 16)
-    wall = (rng.uniform(0.2, 0.8, canvas + (3,)).astype(np.float32) if textured_wall
-            else scenes.painted_wall(canvas, (0.5, 0.48, 0.42), rng))
+    if textured_wall == "mild":  # a grey wall with a faint grain: variance about 0.0064 (colour^2, 3 channels)
+        wall = (np.array([0.5, 0.48, 0.42]) + rng.uniform(-0.08, 0.08, canvas + (3,))).astype(np.float32)
+    else:
+        wall = (rng.uniform(0.2, 0.8, canvas + (3,)).astype(np.float32) if textured_wall
+                else scenes.painted_wall(canvas, (0.5, 0.48, 0.42), rng))
     tex = np.stack([rng.uniform(0.55, 0.95, (44, 44)), rng.uniform(0.2, 0.45, (44, 44)),
                     rng.uniform(0.02, 0.15, (44, 44))], axis=-1).astype(np.float32)
     square = scenes.opaque(tex)
@@ -510,6 +513,23 @@ def test_walking_past_wall_coloured_samples_only_over_a_plain_background():
     assert not np.array_equal(np.nan_to_num(info_walked.alpha), np.nan_to_num(info_off.alpha))  # the gate did it
 
 
+def test_outer_pixels_open_a_hole_over_a_faintly_grained_wall():
+    """``outer_plain``: over a wall with a faint grain (variance 0.006, 0.01 of its mean colour^2: a painted wall
+    or a photo card behind a canopy) the hole the depth map filled opens; by the absolute limit alone (0.001,
+    ``outer_plain`` 0) it stayed filled."""
+    views, warper, planes, truth, hole, disparity, index = _holed_square_filled(textured_wall="mild")
+    square = (disparity == 6.0) & ~hole
+    final = {}
+    for op in (0.0, softedge.SoftEdgeParams().outer_plain):
+        vol = layers.initial_volume(views, warper, 2, disparity, index, white=1.0)
+        params = softedge.SoftEdgeParams(outer_plain=op)
+        final[op] = softedge.soften_edges_passes(vol, views, warper, 2, disparity, index, params=params,
+                                                 white=1.0)[2]
+        assert (final[op][square] == 6.0).mean() > 0.98  # the square itself stays where it is
+    assert (final[0.0][hole] == 6.0).all()
+    assert (final[softedge.SoftEdgeParams().outer_plain][hole] == 1.0).mean() > 0.9
+
+
 def test_outer_pixels_move_only_over_a_plain_background():
     """Over a random-dot wall the colour filled in behind the square is a guess: no outer pixel is put clear. The
     variance is that of the background the views see, not of the filled-in (smoothed) colour."""
@@ -525,6 +545,16 @@ def test_outer_pixels_move_only_over_a_plain_background():
     ys, xs = np.array([20, 20]), np.array([5, 34])
     v = softedge._seen_variance(img, seen, ys, xs, 9)
     assert v[0] < 1e-6 < 0.05 < v[1]
+    # relative to the mean colour^2: the same grain ten times darker is 100 times less in absolute terms, and
+    # about as much relative to its brightness (the floor, 0.003, against a mean colour^2 of about 0.0075)
+    bright, rel_bright = softedge._seen_variance(img, seen, ys, xs, 9, relative=True)
+    dark, rel_dark = softedge._seen_variance(img * 0.1, seen, ys, xs, 9, relative=True)
+    np.testing.assert_allclose(dark, bright * 0.01, rtol=1e-4)
+    np.testing.assert_allclose(rel_bright[1], v[1] / ((img[16:25, 30:39].mean(axis=(0, 1)) ** 2).sum() + 0.003),
+                               rtol=1e-4)
+    assert 0.5 * rel_bright[1] < rel_dark[1] < rel_bright[1]
+    # textured for the outer pixels' test, though an absolute limit of 0.01 would call it plain
+    assert rel_dark[1] > softedge.SoftEdgeParams().outer_plain and dark[1] < 0.01
     seen[:, 20:] = False  # filled in: left out
     assert softedge._seen_variance(img, seen, ys, xs, 9)[1] == np.inf
 
