@@ -241,14 +241,15 @@ def test_the_views_let_the_wall_s_cells_go_back_along_the_frame_edge_of_a_stereo
     new depth above ``join_floor`` counted against the move, and elsewhere a few pixels where the view sees a
     bar the map draws too wide sank a whole cell. Measured: the wall's pixels within 1 px 47.8 % -> 74.6 % (the
     default); of the 6822 pixels the default lets move, 99.8 % go back and 99.8 % end within 1 px of the truth
-    (0.2 % were before)."""
+    (0.2 % were before). Since session 53's visibility pass (``visibility_decided``): 47.8 % -> 75.1 %; of the
+    7468 pixels that move, 96.5 % go back and 96.0 % end within 1 px."""
     gt, maps = _depth_maps(shared_data, "flowers_fence", 2, on={}, strict={"join_share": 0.1, "join_unseen": None})
     wall = np.abs(gt - gt.min()) < 0.5
     assert wall.sum() > 20000
     right = {k: float(np.mean(np.abs(d[wall] - gt[wall]) <= 1.0)) for k, d in maps.items()}
     assert right["strict"] < 0.55 and right["on"] > right["strict"] + 0.2, right
     moved = maps["on"] != maps["strict"]
-    assert moved.sum() > 4000 and np.mean(maps["on"][moved] < maps["strict"][moved]) > 0.98
+    assert moved.sum() > 4000 and np.mean(maps["on"][moved] < maps["strict"][moved]) > 0.95
     assert np.mean(np.abs(maps["on"][moved] - gt[moved]) <= 1.0) > 0.95
 
 
@@ -258,7 +259,9 @@ def test_cells_between_two_surfaces_of_other_colours_spread_too(shared_data):
     and the pixels across their bars are half the one, half the other: under ``cells_share`` (0.7) of the cell's
     colour, so step 15 left them at the bars' depth. Step 15's own ``spread_share`` (0.45) moves them. Measured:
     bad pixels 18.5 -> 15.3 %, the card's pixels within 1 px 75.2 -> 83.1 %; of the 2479 pixels that move, all
-    go back and 99.8 % end within 1 px of the truth (none was before)."""
+    go back and 99.8 % end within 1 px of the truth (none was before). Since session 53's visibility pass
+    (``visibility_decided``): bad pixels 17.1 -> 13.5 %, the card 77.4 -> 86.1 %; of the 2959 pixels that move,
+    98.3 % go back and 99.5 % end within 1 px."""
     gt, maps = _depth_maps(shared_data, "ostrich_grille", 5, on={}, mixed={"spread_share": None})
     bad = {k: float(np.mean(np.abs(d - gt) > 1.0)) for k, d in maps.items()}
     assert bad["on"] < bad["mixed"] - 0.02, bad
@@ -267,7 +270,7 @@ def test_cells_between_two_surfaces_of_other_colours_spread_too(shared_data):
     right = {k: float(np.mean(np.abs(d[card] - gt[card]) <= 1.0)) for k, d in maps.items()}
     assert right["on"] > right["mixed"] + 0.05, right
     moved = maps["on"] != maps["mixed"]
-    assert moved.sum() > 1500 and np.all(maps["on"][moved] < maps["mixed"][moved])
+    assert moved.sum() > 1500 and np.mean(maps["on"][moved] < maps["mixed"][moved]) > 0.97
     assert np.mean(np.abs(maps["on"][moved] - gt[moved]) <= 1.0) > 0.95
 
 

@@ -18,7 +18,9 @@ This stage gives the layered model a dependable front surface instead, from clas
 3. **Semi-global matching** (:mod:`vfxstereo.sgm`): 8 paths, P2 lowered at image edges.
 4. **Winner and sub-pixel**: the plane of least aggregated cost, refined by a parabola (Section 8.1).
 5. **Visibility** (the paper's Section 5 made from a depth map): the disparity map is forward-projected
-   into every view (a z-buffer: the nearest disparity landing on each view pixel); a cell is hidden in view k
+   into every view (a z-buffer: the nearest disparity landing on each view pixel), the pixels whose depth the
+   pass decided only (``visibility_decided``, :func:`decided`: a clear least cost, or a plain surface placed by
+   its edges; a pixel semi-global matching placed without evidence of its own hides nothing); a cell is hidden in view k
    when something nearer by more than ``visibility_tolerance`` planes lands where it would be seen. Steps
    1-4 run again with those views left out of each hidden cell's mean: occluded pixels are then matched by
    the views that see them (Kang, Szeliski & Chai, CVPR 2001, choose views by left/right subsets; measured
@@ -73,6 +75,30 @@ of the left-views and right-views mean costs (Kang et al.) scored a mean of 1.10
 (Wood2 4.5x: the 2005/2006 sets have one view left of the reference and five right of it); the mean over all
 views 0.69x; the mean with one visibility pass 0.66x (and 0.56x over all 31 sets)."""
 
+VISIBILITY_DECIDED_MEASURED = """Session 53, ``DepthConfig.visibility_decided`` (rival gap at least 0.25 against
+planes 2 px or more away, or plain below 3 over 5 x 5) against every pixel in the z-buffer. Z-key benchmark (frame /
+band dB): all 362 rows 32.49 / 26.05 -> 32.82 / 26.38, band against the true-depth key -2.95 -> -2.63 dB; tuning
+rows K = 5 34.68 / 27.57 -> 34.67 / 27.71, K = 2 31.63 / 25.44 -> 32.10 / 25.82; held-out rows (scored with this
+value and with the rival gap alone, no other) K = 5 30.56 / 25.14 -> 31.09 / 25.53, K = 2 27.71 / 22.37 -> 28.90 /
+23.31. Rows losing to the SGBM key 9 / 6 -> 9 / 8: fur_pillar_monopoly K = 2's card at d = 3.4 (-3.1 -> +7.0 frame)
+and petals_grille_plastic K = 2's at d = 8 (band) turn to winning; panel_hair_books K = 5's full card at d = 11
+(frame 53.5 -> 16.4 dB: step 14 now sends the plain panel at the right back, from a map that differs in a few
+undecided pixels along its edge), fur_pillar_monopoly K = 5's card at d = 3.4 (band 80.8 -> 51.9, both nearly exact)
+and artichoke_books K = 2's at d = 4 (band -0.06) turn to losing. Bad pixels of the depth: lattice_leaves K = 2 23.5
+-> 19.4 %, K = 5 14.4 -> 10.7 %, tree_cloth K = 2 18.5 -> 14.1 %, beanie_grille K = 2 20.8 -> 17.0 %; koala_slope K
+= 2 20.2 -> 29.3 % (the pencil cup's mesh, periodic and so undecided, no longer hides the slope behind it, and the
+slope between the pencils takes the cup's depth). Middlebury, all 31 sets, bad pixels: from all views 9.17 -> 8.65 %
+(0.466x -> 0.438x SGBM, the worst set 0.82x -> 0.80x, none losing; Monopoly 12.3 -> 10.1, Midd1 23.9 -> 21.5,
+Laundry 17.0 -> 15.8), from the classic pair 14.27 -> 13.82 % (Monopoly's 16.7 -> 18.2, Books' 23.1 -> 23.5);
+held-out views (tsukuba, teddy, Cloth1, Plastic, Wood2) 37.88 -> 37.90 dB (tsukuba 33.76 -> 34.36, Plastic 39.37 ->
+38.99). Tried: the rival gap alone (no plain pixels): +0.25 dB band over all rows, but plain boards lost their depth
+(rabbit_cream_board K = 5 -40 dB, sign_plant_aloe K = 2 -33 dB, plank_toy_wood K = 5 -39 dB on near-exact rows: a
+plain board's far candidates were no longer hidden by the board itself); tuning rows, frame / band against the head,
+K = 5 ; K = 2: gap 0.15 +0.01 / +0.20 ; +0.31 / +0.32, 0.25 -0.01 / +0.14 ; +0.46 / +0.38, 0.35 -0.06 / +0.11 ;
++0.58 / +0.30, plain below 5 -0.10 / +0.10 ; +0.42 / +0.21. On lattice_leaves K = 2: no z-buffer at all
+(``visibility_passes`` 0) 21.3 % bad, two visibility passes of the old rule 26.3 %, two of the new 19.3 %
+(koala_slope K = 2 26.0 %, tree_cloth 14.5 %)."""
+
 EDGE_ZBUFFERS = ("confident", "all", "sided")
 """The values of :attr:`DepthConfig.edge_zbuffer`."""
 
@@ -121,6 +147,25 @@ class DepthConfig:
     visibility_tolerance: float = 4.0
     """A cell is hidden in a view when a disparity larger by more than this many plane steps lands on its
     view pixel."""
+    visibility_decided: float = 0.25
+    """Step 5's z-buffer holds only the pixels whose depth the pass before decided (:func:`decided`): their cost
+    (after the window and the flat-surface bias, before semi-global matching) has a rival gap
+    (:func:`rival_gap`, against planes ``visibility_rival`` px or more away) of at least this, or they are
+    plain (``visibility_plain``). 0: every pixel (the rule until session 53).
+
+    A pixel semi-global matching placed without evidence of its own must not hide the cells behind it: the
+    weakly textured wall seen through a lattice's cells, on a stereo pair, took the bars' depth in the first
+    pass (the strip each bar hides in the other view matches best at the bars' depth, and the rest of the cell
+    says little), and the z-buffer of that map then hid the wall's own depth in the other view, so the second
+    pass confirmed the mistake. Plain pixels still occlude: a plain board's depth comes from its edges, and
+    its own z-buffer keeps the wall behind it from matching its plain face.
+
+    Measured (session 53; the z-key benchmark's 362 rows, frame / band dB, and bad pixels of the depth against
+    the truth): see ``VISIBILITY_DECIDED_MEASURED``."""
+    visibility_rival: float = 2.0
+    """:func:`decided`'s rival planes lie at least this far (px) from the winner."""
+    visibility_plain: float = 3.0
+    """:func:`decided`'s plain pixels: grey deviation (8-bit sRGB) over 5 x 5 below this (0: none)."""
     fill_occluded: bool = True
     """After the visibility pass, pixels whose winning cell no other view sees (occluded in all of them) are
     unreliable and filled (step 6's fill)."""
@@ -979,7 +1024,9 @@ class DepthConfig:
                 or self.guided_radius < 1 or self.guided_eps <= 0 or self.rival_jump < 0 or self.rival_scale <= 0
                 or self.guard_jump < 0 or self.guard_radius < 1 or not 0 < self.guard_share <= 1
                 or self.guard_unlike < 0 or self.guard_carry < 0 or not 0 <= self.boards_share <= 1
-                or not 0 <= self.boards_far <= 1 or self.rails_contrast < 0 or self.rails_pieces < 1):
+                or not 0 <= self.boards_far <= 1 or self.rails_contrast < 0 or self.rails_pieces < 1
+                or not self.visibility_decided >= 0 or not self.visibility_rival > 0
+                or not self.visibility_plain >= 0):
             raise VfxStereoError("depth settings: box >= 1, paths 4 or 8, median >= 0, visibility_passes >= 0, "
                                  "flat_window >= 1, reopen_passes >= 0, reopen_radii >= 1, 0 < reopen_ratio <= 1, "
                                  "reopen_floor, reopen_relative, reopen_jitter, reopen_jump, reopen_settle >= 0, "
@@ -987,7 +1034,9 @@ class DepthConfig:
                                  "guided_radius >= 1, "
                                  "guided_eps > 0, rival_jump >= 0, rival_scale > 0, guard_jump >= 0, "
                                  "guard_radius >= 1, 0 < guard_share <= 1, guard_unlike, guard_carry >= 0, "
-                                 "0 <= boards_share <= 1, 0 <= boards_far <= 1, rails_contrast >= 0, rails_pieces >= 1")
+                                 "0 <= boards_share <= 1, 0 <= boards_far <= 1, rails_contrast >= 0, "
+                                 "rails_pieces >= 1, visibility_decided >= 0, visibility_rival > 0, "
+                                 "visibility_plain >= 0")
         if (self.rim_ratio < 0 or self.rim_passes < 0 or self.rim_radius < 1 or self.rim_tolerance <= 0
                 or not self.rim_jump > 2 * self.rim_tolerance):
             raise VfxStereoError("depth settings: rim_ratio, rim_passes >= 0, rim_radius >= 1, rim_tolerance > 0, "
@@ -1329,6 +1378,20 @@ def rival_gap(cost: np.ndarray, planes: int, seen: list[np.ndarray] | None = Non
             far &= sum(n[y:y + 64] for n in seen) > 0
         out[y:y + 64] = np.where(far, c, np.inf).min(axis=2) - best
     return np.where(np.isfinite(out), out, np.float32(1e3))
+
+
+def decided(cost: np.ndarray, grey: np.ndarray, planes: int, gap: float, plain: float,
+            seen: list[np.ndarray] | None = None) -> np.ndarray:
+    """(H, W) bool: the pixels whose depth ``cost`` decides (``DepthConfig.visibility_decided``).
+
+    Those whose :func:`rival_gap` (``planes``, ``seen``) is at least ``gap``, and those whose ``grey`` (8-bit)
+    deviates by less than ``plain`` over 5 x 5 (0: none): a plain surface is placed by its edges, not by its
+    own cost.
+    """
+    sure = rival_gap(cost, planes, seen) >= gap
+    if plain > 0:
+        sure |= local_deviation(grey, 5) < plain
+    return sure
 
 
 def seen_at(count: dict, win: np.ndarray) -> np.ndarray:
@@ -1700,6 +1763,7 @@ def _robust_depth(views, warper, reference, config, progress, keep_volume) -> De
     unbiased_S = np.empty((h, w, D), np.float32) if guarded else None
     from vfxstereo.sgm import sgm
     disparity = None
+    sure = None  # the pixels whose depth the pass decided (``visibility_decided``)
     passes = config.visibility_passes + 1
 
     def aggregate(cost, out):  # semi-global matching of a cost volume into ``out``
@@ -1713,8 +1777,9 @@ def _robust_depth(views, warper, reference, config, progress, keep_volume) -> De
         # (A pass that only revisits the pixels whose visibility changed was measured at HD x 64 planes: a
         # pixel's cells sweep D x baseline px of each view's row, so nearly every pixel has some cell a nearer
         # surface hides; it saved 0.3 of 6.3 s and was taken out.)
+        occluding = disparity if disparity is None or sure is None else np.where(sure, disparity, np.float32(d[0]))
         for n, k in enumerate(others):
-            zbuf = zbuffer(warper, disparity, k) if disparity is not None else None
+            zbuf = zbuffer(warper, occluding, k) if disparity is not None else None
             sd = side[k] if len(sides) > 1 else sides[0]
             matching.accumulate(prep, warper, k, reference, total[sd], count[sd], zbuf=zbuf,
                                 tolerance=config.visibility_tolerance * step, centre=config.centre,
@@ -1752,6 +1817,9 @@ def _robust_depth(views, warper, reference, config, progress, keep_volume) -> De
                            texture_scale=config.flat_texture, window=config.flat_window, gap=gap,
                            rival=max(1, int(round(config.rival_jump / step))) if config.rival_jump > 0 else 0,
                            rival_scale=config.rival_scale, seen=list(count.values()))
+        if config.visibility_decided > 0 and p < passes - 1:  # the pixels step 5's next pass lets hide others
+            sure = decided(cost, prep.grey[reference], max(1, int(round(config.visibility_rival / step))),
+                           config.visibility_decided, config.visibility_plain, list(count.values()))
         timed("match", t0)
         t0 = time.perf_counter()
         aggregate(cost, S)
