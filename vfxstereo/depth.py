@@ -1777,7 +1777,8 @@ def _robust_depth(views, warper, reference, config, progress, keep_volume) -> De
         # (A pass that only revisits the pixels whose visibility changed was measured at HD x 64 planes: a
         # pixel's cells sweep D x baseline px of each view's row, so nearly every pixel has some cell a nearer
         # surface hides; it saved 0.3 of 6.3 s and was taken out.)
-        occluding = disparity if disparity is None or sure is None else np.where(sure, disparity, np.float32(d.min()))
+        # undecided pixels hide nothing (``sure`` is set, with ``disparity``, from the first pass on)
+        occluding = disparity if sure is None else np.where(sure, disparity, np.float32(d.min()))
         for n, k in enumerate(others):
             zbuf = zbuffer(warper, occluding, k) if disparity is not None else None
             sd = side[k] if len(sides) > 1 else sides[0]
