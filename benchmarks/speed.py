@@ -37,7 +37,8 @@ matting     the RGBA volume read and written once (32 D N); the band it changes 
 subpixel    three cost samples read and the disparity written per pixel (16 N)
 ==========  ===============================================================================================
 
-The robust path (the default), with P = ``depth_config.visibility_passes + 1`` matching passes and L the
+The robust path (the default), with P = ``DepthConfig.passes(K)`` matching passes (``visibility_passes_views + 1``
+from three views, ``visibility_passes + 1`` for a pair) and L the
 planes the stack holds (D, or fewer with ``keep_empty_planes=False``):
 
 ============  =============================================================================================
@@ -132,7 +133,11 @@ def stage_bytes(stage: str, *, n: int, d: int, k: int, settings: dict, layers: i
     ``layers``: the planes the stack holds (robust depth; default ``d``)."""
     c = _counts(settings)
     if settings.get("depth") == "robust":
-        passes = int(settings.get("depth_config", {}).get("visibility_passes", 1)) + 1
+        from vfxstereo.depth import DepthConfig
+
+        dc = settings.get("depth_config", {})
+        passes = DepthConfig(**{f: dc[f] for f in ("visibility_passes", "visibility_passes_views")
+                                if f in dc}).passes(k)
         lay = d if layers is None else layers
         robust = {
             "depth.match": passes * ((k - 1) * 10 * d * n + 28 * d * n),

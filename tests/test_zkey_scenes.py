@@ -261,10 +261,16 @@ def test_cells_between_two_surfaces_of_other_colours_spread_too(shared_data):
     bad pixels 18.5 -> 15.3 %, the card's pixels within 1 px 75.2 -> 83.1 %; of the 2479 pixels that move, all
     go back and 99.8 % end within 1 px of the truth (none was before). Since session 53's visibility pass
     (``visibility_decided``): bad pixels 17.1 -> 13.5 %, the card 77.4 -> 86.1 %; of the 2959 pixels that move,
-    98.3 % go back and 99.5 % end within 1 px."""
-    gt, maps = _depth_maps(shared_data, "ostrich_grille", 5, on={}, mixed={"spread_share": None})
+    98.3 % go back and 99.5 % end within 1 px. These are with one visibility pass, which singles out step 15;
+    with session 54's two at K = 5 (``visibility_passes_views``) it still takes bad pixels 17.3 -> 14.7 %, but
+    the card gains nothing (79.5 % either way): of the 3308 pixels that move, 94.8 % go back and only 69.9 % end
+    within 1 px, many of them on the wall (ostrich_grille's K = 5 map is one of the few the second pass made
+    worse, ``depth.VISIBILITY_PASSES_MEASURED``)."""
+    gt, maps = _depth_maps(shared_data, "ostrich_grille", 5, on={"visibility_passes_views": 1},
+                           mixed={"spread_share": None, "visibility_passes_views": 1},
+                           on2={}, mixed2={"spread_share": None})
     bad = {k: float(np.mean(np.abs(d - gt) > 1.0)) for k, d in maps.items()}
-    assert bad["on"] < bad["mixed"] - 0.02, bad
+    assert bad["on"] < bad["mixed"] - 0.02 and bad["on2"] < bad["mixed2"] - 0.015, bad
     card = (gt > gt.min() + 0.5) & (gt < 6.0)
     assert card.sum() > 10000
     right = {k: float(np.mean(np.abs(d[card] - gt[card]) <= 1.0)) for k, d in maps.items()}

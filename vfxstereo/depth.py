@@ -20,10 +20,11 @@ This stage gives the layered model a dependable front surface instead, from clas
 5. **Visibility** (the paper's Section 5 made from a depth map): the disparity map is forward-projected
    into every view (a z-buffer: the nearest disparity landing on each view pixel), the pixels whose depth the
    pass decided only (``visibility_decided``, :func:`decided`: a clear least cost, or a plain surface placed by
-   its edges; a pixel semi-global matching placed without evidence of its own hides nothing); a cell is hidden in view k
-   when something nearer by more than ``visibility_tolerance`` planes lands where it would be seen. Steps
-   1-4 run again with those views left out of each hidden cell's mean: occluded pixels are then matched by
-   the views that see them (Kang, Szeliski & Chai, CVPR 2001, choose views by left/right subsets; measured
+   its edges; a pixel semi-global matching placed without evidence of its own hides nothing); a cell is hidden
+   in view k when something nearer by more than ``visibility_tolerance`` planes lands where it would be seen.
+   Steps 1-4 run again with those views left out of each hidden cell's mean (twice with three views or more,
+   ``visibility_passes_views``; once for a stereo pair, ``visibility_passes``): occluded pixels are then matched
+   by the views that see them (Kang, Szeliski & Chai, CVPR 2001, choose views by left/right subsets; measured
    here, explicit visibility beats a subset minimum, which on a rig with one view on one side and five on
    the other picks the noisy lone view: see :data:`SUBSETS_MEASURED`).
 6. **Unreliable pixels**: those whose winning cell no other view sees (``fill_occluded``) and, for a stereo
@@ -99,6 +100,21 @@ K = 5 ; K = 2: gap 0.15 +0.01 / +0.20 ; +0.31 / +0.32, 0.25 -0.01 / +0.14 ; +0.4
 (``visibility_passes`` 0) 21.3 % bad, two visibility passes of the old rule 26.3 %, two of the new 19.3 %
 (koala_slope K = 2 26.0 %, tree_cloth 14.5 %)."""
 
+VISIBILITY_PASSES_MEASURED = """Session 54, ``DepthConfig.visibility_passes_views`` 2 (three matching passes with
+three or more views) against 1. Z-key benchmark (frame / band dB), all 362 rows 32.82 / 26.38 -> 33.02 / 26.42 (band
+against the true-depth key -2.63 -> -2.59 dB); K = 5 tuning rows 34.67 / 27.71 -> 35.12 / 27.79, held out 31.09 /
+25.53 -> 31.19 / 25.64; the K = 2 rows unchanged. Rows losing to the SGBM key 9 / 8 -> 9 / 7. panel_hair_books K = 5:
+its plain panel in front of the books, which one pass sent back (the full card at d = 11 +37 dB frame, at d = 6.8
++20), bad pixels 22.5 -> 6.9 %; rabbit_cream_board's full card at d = 10.5 +5.8 dB; ostrich_grille's full card at d =
+6 -4.5 / -3.0, board_fence_toy's card at d = 3 -4.0 / -3.2. Bad pixels of the K = 5 depth maps, mean of 36 scenes
+11.50 -> 10.98 % (wicker_wall 7.9 -> 5.5, fence_dof 37.2 -> 32.8; koala_slope 23.0 -> 31.3, plush_wall 43.1 -> 46.3,
+ostrich_grille 9.2 -> 11.0). Middlebury, all 31 sets from all views: 8.65 -> 8.19 % bad (0.438x -> 0.421x SGBM, the
+worst set 0.80x, none losing; 25 sets better, 3 worse: Monopoly 10.1 -> 6.8, Plastic 32.8 -> 29.8, Midd2 14.6 ->
+11.9; Midd1 21.5 -> 23.2, tsukuba 3.05 -> 3.16); held-out views (tsukuba, teddy, Cloth1, Plastic, Wood2) 37.90 ->
+37.99 dB (Plastic 38.99 -> 39.53, tsukuba 34.36 -> 34.25). On a stereo pair a second visibility pass lost 0.85 / 0.44
+dB over the 151 K = 2 tuning rows (12 rows losing on the frame against 5): with one other view, a wrong first map has
+nothing to correct it and a further pass only confirms it."""
+
 EDGE_ZBUFFERS = ("confident", "all", "sided")
 """The values of :attr:`DepthConfig.edge_zbuffer`."""
 
@@ -143,7 +159,12 @@ class DepthConfig:
     paths: int = 8
     """SGM path directions, 8 or 4."""
     visibility_passes: int = 1
-    """Passes of step 5: re-match with the views that see each cell (0: none)."""
+    """Passes of step 5 for a stereo pair: re-match with the views that see each cell (0: none)."""
+    visibility_passes_views: int | None = 2
+    """Passes of step 5 with three or more views (None: ``visibility_passes``). With views on both sides the
+    second pass's z-buffers come from a map that already saw the occlusions of the first; on a pair, a wrong
+    first map has no other view to correct it and a further pass only confirms it. Measured: see
+    ``VISIBILITY_PASSES_MEASURED``."""
     visibility_tolerance: float = 4.0
     """A cell is hidden in a view when a disparity larger by more than this many plane steps lands on its
     view pixel."""
@@ -1014,8 +1035,15 @@ class DepthConfig:
     """Step 19's sides: the window's pixels within this of the front's and of the back's disparity (below half of
     ``rim_jump``)."""
 
+    def passes(self, views: int) -> int:
+        """Matching passes (step 5's visibility passes + 1) of a solve from ``views`` views."""
+        if views >= 3 and self.visibility_passes_views is not None:
+            return self.visibility_passes_views + 1
+        return self.visibility_passes + 1
+
     def __post_init__(self):
         if (self.box < 1 or self.paths not in (4, 8) or self.median < 0 or self.visibility_passes < 0
+                or (self.visibility_passes_views is not None and self.visibility_passes_views < 0)
                 or self.flat_window < 1 or self.reopen_passes < 0 or any(r < 1 for r in self.reopen_radii)
                 or not 0 < self.reopen_ratio <= 1 or self.reopen_floor < 0 or self.reopen_relative < 0
                 or self.reopen_jitter < 0 or self.reopen_jump < 0 or self.reopen_views < 1
@@ -1028,7 +1056,8 @@ class DepthConfig:
                 or not self.visibility_decided >= 0 or not self.visibility_rival > 0
                 or not self.visibility_plain >= 0):
             raise VfxStereoError("depth settings: box >= 1, paths 4 or 8, median >= 0, visibility_passes >= 0, "
-                                 "flat_window >= 1, reopen_passes >= 0, reopen_radii >= 1, 0 < reopen_ratio <= 1, "
+                                 "visibility_passes_views >= 0, flat_window >= 1, reopen_passes >= 0, "
+                                 "reopen_radii >= 1, 0 < reopen_ratio <= 1, "
                                  "reopen_floor, reopen_relative, reopen_jitter, reopen_jump, reopen_settle >= 0, "
                                  "reopen_views >= 1, 0 <= reopen_pair <= 1, aggregation 'box' or 'guided', "
                                  "guided_radius >= 1, "
@@ -1764,7 +1793,7 @@ def _robust_depth(views, warper, reference, config, progress, keep_volume) -> De
     from vfxstereo.sgm import sgm
     disparity = None
     sure = None  # the pixels whose depth the pass decided (``visibility_decided``)
-    passes = config.visibility_passes + 1
+    passes = config.passes(K)
 
     def aggregate(cost, out):  # semi-global matching of a cost volume into ``out``
         sgm(cost, prep.grey[reference], P1=config.P1, P2=config.P2, sigma=config.sigma, paths=config.paths, out=out)
@@ -1856,7 +1885,7 @@ def _robust_depth(views, warper, reference, config, progress, keep_volume) -> De
             timings["cells"] = timings.get("cells", 0.0) + time.perf_counter() - t1
     t0 = time.perf_counter()
     reliable = np.ones((h, w), bool)
-    if config.fill_occluded and config.visibility_passes > 0:
+    if config.fill_occluded and passes > 1:
         # no other view sees the winning cell: half-occluded in every view, so matching said nothing there
         reliable &= seen_at(count, win)
     pair_map, pair_view = None, None  # the other view's own map (the rematch), for step 9 on a pair

@@ -29,9 +29,10 @@ def test_the_tables_add_up_moves_per_scene_and_per_pass():
 
 @pytest.mark.data
 def test_a_fattened_rim_over_a_plain_wall_moves_and_leaves_no_solid_surface(shared_data, tmp_path):
-    """fur_grey_wall at K = 5 (a tuning scene): the passes move over a hundred pixels (thousands before the
+    """fur_grey_wall at K = 5 (a tuning scene): the passes move some tens of pixels (thousands before the
     depth stage's plain joins gave most of the rim back to the wall, 580 before its rim colours took most of the
-    rest), none off the solid fur or rabbit, most over the plain wall. Traced again from the depth map the first
+    rest, 129 before session 54's second visibility pass at K = 5 left 88), none off the solid fur or rabbit,
+    most over the plain wall. Traced again from the depth map the first
     trace stored in ``--depth-cache``, the passes move exactly the same pixels."""
     recs = passes.trace("fur_grey_wall", 5, "robust", tmp_path)
     assert len(list(tmp_path.glob("fur_grey_wall_K5_*.npy"))) == 1
@@ -39,5 +40,5 @@ def test_a_fattened_rim_over_a_plain_wall_moves_and_leaves_no_solid_surface(shar
     moved = sum(r["moved"] for r in recs)
     off = sum(r["off_solid"] for r in recs)
     plain = sum(r["moved"] for r in recs if r["background"] == "plain")
-    assert moved > 100 and off < 0.02 * moved and plain > 0.75 * moved, (moved, off, plain)  # 129, 0, 84 %
+    assert moved > 50 and off < 0.02 * moved and plain > 0.75 * moved, (moved, off, plain)  # 88, 0, 77 %
     assert [r["pass"] for r in recs] == sorted(r["pass"] for r in recs) and np.all([r["moved"] >= 0 for r in recs])

@@ -46,7 +46,7 @@ def test_a_case_that_does_not_finish_is_a_failed_row():
 
 def test_the_robust_byte_model_sums_the_depth_stages_and_counts_the_layers_held():
     n, d, k = 100, 10, 5
-    robust = {"depth": "robust", "depth_config": {"visibility_passes": 1}}
+    robust = {"depth": "robust", "depth_config": {"visibility_passes_views": 1}}
     parts = [speed.stage_bytes(s, n=n, d=d, k=k, settings=robust) for s in ("depth.match", "depth.sgm",
                                                                              "depth.finish")]
     assert parts[0] == 2 * ((k - 1) * 10 * d * n + 28 * d * n)  # two passes
@@ -54,6 +54,10 @@ def test_the_robust_byte_model_sums_the_depth_stages_and_counts_the_layers_held(
     full = speed.stage_bytes("layers", n=n, d=d, k=k, settings=robust)
     lean = speed.stage_bytes("layers", n=n, d=d, k=k, settings=robust, layers=2)
     assert full - lean == 16 * (d - 2) * n
+    # the default's passes: three with three or more views, two for a pair
+    default = {"depth": "robust"}
+    assert speed.stage_bytes("depth.match", n=n, d=d, k=k, settings=default) == 3 * ((k - 1) * 10 * d * n + 28 * d * n)
+    assert speed.stage_bytes("depth.match", n=n, d=d, k=2, settings=default) == 2 * (10 * d * n + 28 * d * n)
 
 
 def test_a_case_with_fewer_views_solves_the_central_ones():
