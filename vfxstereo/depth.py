@@ -113,7 +113,13 @@ the worst set 0.80x, none losing; 25 sets better, 3 worse: Monopoly 10.1 -> 6.8,
 11.9; Midd1 21.5 -> 23.2, tsukuba 3.05 -> 3.16); held-out views (tsukuba, teddy, Cloth1, Plastic, Wood2) 37.90 ->
 37.99 dB (Plastic 38.99 -> 39.53, tsukuba 34.36 -> 34.25). On a stereo pair a second visibility pass lost 0.85 / 0.44
 dB over the 151 K = 2 tuning rows (12 rows losing on the frame against 5): with one other view, a wrong first map has
-nothing to correct it and a further pass only confirms it."""
+nothing to correct it and a further pass only confirms it. Cost: the depth stage at 1920 x 1080 x 64 planes, K = 5
+(``samples.layered_scene``), 1.24x the time of one pass (matching 13 -> 19 s, SGM 3.7 -> 5.4 s; the stage 28 -> 35 s,
+side by side, alternating, two runs each); memory unchanged (the passes reuse the volumes). Tried with it, on the
+tuning rows against it (frame / band dB, K = 5 ; K = 2): ``guided_radius`` 1 -0.91 / -0.39 ; -1.71 / -1.07, 3 -0.50 /
+-0.19 ; +0.06 / +0.17; ``guided_eps`` 3e-4 +0.08 / +0.07 ; +0.23 / -0.00 (held out -0.06 / -0.06 ; -0.20 / -0.14),
+1e-4 +0.11 / +0.05 ; -0.22 / -0.26 (sign_plant_aloe K = 2 -33 dB: its plain sign went back); ``visibility_tolerance``
+2 planes -0.19 / -0.08 ; -0.95 / -0.38. None kept."""
 
 EDGE_ZBUFFERS = ("confident", "all", "sided")
 """The values of :attr:`DepthConfig.edge_zbuffer`."""
