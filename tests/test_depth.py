@@ -116,7 +116,7 @@ def test_a_tsukuba_crop_is_below_its_bound(shared_data):
     res = depth.robust_depth(views, Warper(Camera.from_positions(ds.positions, ds.reference), planes,
                                            gt.shape), ds.reference)
     bad = np.mean(np.abs(res.disparity - gt)[np.isfinite(gt)] > 1.0)
-    assert bad < 0.06, bad  # measured 3.6 %
+    assert bad < 0.06, bad  # measured 3.3 % (3.6 % before session 54's second visibility pass)
 
 
 @pytest.mark.data
@@ -133,7 +133,7 @@ def test_a_2005_crop_is_below_its_bound_and_all_views_beat_the_pair(shared_data)
         cam = Camera.from_positions(ds.positions[keep], keep.index(1))
         res = depth.robust_depth(views[keep], Warper(cam, planes, gt.shape), keep.index(1))
         bad[name] = float(np.mean(np.abs(res.disparity - gt)[scored] * ds.eval_steps > 1.0))
-    assert bad["all"] < 0.13, bad  # measured 11.1 % (the pair: 31 %)
+    assert bad["all"] < 0.13, bad  # measured 9.2 % (the pair: 20 %; 11.1 % and 31 % in an older session)
     assert bad["all"] < bad["pair"], bad
 
 
