@@ -119,7 +119,8 @@ side by side, alternating, two runs each); memory unchanged (the passes reuse th
 tuning rows against it (frame / band dB, K = 5 ; K = 2): ``guided_radius`` 1 -0.91 / -0.39 ; -1.71 / -1.07, 3 -0.50 /
 -0.19 ; +0.06 / +0.17; ``guided_eps`` 3e-4 +0.08 / +0.07 ; +0.23 / -0.00 (held out -0.06 / -0.06 ; -0.20 / -0.14),
 1e-4 +0.11 / +0.05 ; -0.22 / -0.26 (sign_plant_aloe K = 2 -33 dB: its plain sign went back); ``visibility_tolerance``
-2 planes -0.19 / -0.08 ; -0.95 / -0.38. None kept."""
+2 planes -0.19 / -0.08 ; -0.95 / -0.38; at K = 5 only, ``visibility_passes_views`` 3 -0.06 / +0.01,
+``visibility_decided`` 0 (every pixel in the z-buffer) -0.17 / -0.06, 0.35 -0.11 / -0.03. None kept."""
 
 EDGE_ZBUFFERS = ("confident", "all", "sided")
 """The values of :attr:`DepthConfig.edge_zbuffer`."""
@@ -208,7 +209,8 @@ class DepthConfig:
     consistency: bool | None = None
     """Step 6: check against the disparity of another view and fill what disagrees. None: on for a stereo pair
     (K = 2), off with more views, as measured: on the classic pairs of tsukuba, teddy, Art and Baby3 it takes
-    the mean bad-pixel rate from 17.8 to 16.4 %; with all views of six sets it helps three and hurts three."""
+    the mean bad-pixel rate from 17.8 to 16.4 %; with all views of six sets it helps three and hurts three.
+    Session 54, with two visibility passes: on at K = 5, z-key tuning rows -0.52 / -0.05 dB frame / band."""
     consistency_view: int | None = None
     """Steps from the reference to the view of the check (default: the farthest view on the side with more)."""
     consistency_contradict: float = 0.05
