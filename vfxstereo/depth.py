@@ -450,7 +450,14 @@ class DepthConfig:
        -0.2). Middlebury's 31 sets, depth alone: 9.76 -> 9.76 % bad (no set worse by more than 0.01), at
        50-130 % of the depth stage's own time at their sizes; HD x 64 planes (K = 5, random dots), side by
        side: 31 s with 2 passes against the rest of the depth stage's 35 s, 15 s against 34 s since a pass
-       that moves almost nothing ends them (``reopen_settle``)."""
+       that moves almost nothing ends them (``reopen_settle``).
+
+    Session 55, on the head (all of steps 10-19 in place), K = 5, all 181 rows: -0.01 / -0.01 (tuning +0.00 /
+    -0.00, held out -0.05 / -0.05): tree_cloth +0.51 / +0.48, fence_dof +0.56 / +0.36, tassels_room +0.38 / +0.42,
+    but sheep_duck_wall -0.64 / -0.79, wicker_grille_dolls -0.32 / -0.33, beanie_grille -0.31 / -0.25. The gaps it
+    was made for are mostly taken by the later steps; the ones left (leaves_wire_bowling: pale wallpaper through
+    dark leaves 9 px per view step nearer, bad pixels 8.3 -> 8.2 %) are seen by one view of four or none, with an
+    error there of about 0.03 against 0.04-0.14 at the leaves' depth, above the ratio. Still off."""
     reopen_radii: tuple[int, ...] = (8, 16, 32, 64)
     """Candidate back surfaces: the farthest disparity within each of these distances (px)."""
     reopen_jump: float = 1.0
@@ -502,6 +509,10 @@ class DepthConfig:
       +0.39 / +0.27), no row losing that did not;
     * Middlebury's classic pairs, depth alone: 14.33 -> 14.32 % bad (12 sets better, tsukuba 5.30 -> 5.20, Art
       22.17 -> 22.07; Bowling2 and cones 0.01 worse).
+
+    Session 55, on the head (all of steps 10-19 in place), the 151 K = 2 tuning rows: -0.04 / -0.03 (fence_dof
+    -0.10 / +0.21: its gain is gone, the later steps now take most of those gaps; tree_cloth -0.50 / -0.55,
+    ostrich_grille -0.33 / -0.09). Still off.
     """
     reopen_views: int = 2
     """Views that must see the candidate with the plate's colour (its error: the ``reopen_views``-th least of
@@ -522,7 +533,16 @@ class DepthConfig:
     docstring. The versions that also opened islands inside a surface gained more on the first seven tuning
     scenes and lost on the others (module docstring)."""
     colour_radius: int = 40
-    """Reach of step 10's window (px)."""
+    """Reach of step 10's window (px; steps 16's too).
+
+    Session 55, against 40 (z-key tuning rows, frame / band dB): at K = 2, 60 +0.12 / +0.15, 80 +0.34 / +0.26
+    (trolls_art +1.3 / +1.7, wicker_wall +1.5 / +1.6, tassels_room +1.3 / +1.2: a stereo pair's half-occluded
+    strips beside a head or a pencil are wide, and within 40 px the strip's own wrongly placed pixels count as
+    much as the surface it belongs to; doll_plaster -2.6 / +0.1, tree_cloth -0.8 / -0.8), 120 +0.25 / +0.03,
+    80 sampled every 8 px +0.13 / +0.03; at K = 5, 80 -0.59 / +0.04, rows losing to the SGBM key 3 / 4 -> 6 / 4
+    (two_soft_pots' near-exact rows -10 to -13 dB over the frame, duck_monster_baby -21 on one). Then scored on the
+    held-out rows at K = 2, 80: +0.01 / -0.06 (wicker_grille_dolls -0.8 / -0.9, plank_toy_wood +0.7 / +0.4): the
+    tuning gain is the scenes', not the radius's. Not kept, for a pair or at all."""
     colour_stride: int = 4
     """Step 10's window samples every this many px."""
     colour_like: float = 0.04
@@ -551,7 +571,14 @@ class DepthConfig:
     (2.5 of 32.1 s), 10 % at 4096 x 2160 x 64 (11.6 of 115.6 s; the solve's peak 6.7 GiB, within its estimate
     of 13.0)."""
     thin_views: int = 3
-    """Other views step 11 needs (and it needs them on both sides of the reference): with fewer it is skipped."""
+    """Other views step 11 needs (and it needs them on both sides of the reference): with fewer it is skipped.
+
+    Tried in session 55 for a stereo pair (a 1 px grille is where the K = 2 rows lose most against the true-depth
+    key: petals_grille_plastic K = 2 has 45 % of its grille pixels off the grille's depth, K = 5 17 %): step 11
+    with the pair's one view (``thin_ratio`` 3), keeping only groups at least 20 px long, on the final maps of 7
+    tuning scenes put more pixels wrong than right on every one (petals_grille_plastic 1254 right / 1802 wrong,
+    shelf_grille 167 / 418, beanie_grille 246 / 480, trolls_art 0 / 128, two_soft_pots 0 / 370, hair_shelves 0 /
+    230): one view matches a nearer plane by chance along edges and hair too, in long groups."""
     thin_jump: float = 1.5
     """A candidate plane is nearer than the pixel's disparity by more than this (px per view step)."""
     thin_ratio: float = 3.0
@@ -631,7 +658,12 @@ class DepthConfig:
       K = 5 +4.4 / +2.6), but the same curls_wire_midd row as ``join_grow`` 1.0 turns to losing on the band and
       Middlebury Moebius goes 12.0 -> 13.4 % (mean 9.20)."""
     join_plain: float = 3.0
-    """Step 12's plain pixels: local deviation of the grey (8-bit sRGB, 5 x 5) below this."""
+    """Step 12's plain pixels: local deviation of the grey (8-bit sRGB, 5 x 5) below this (steps 13-15 and 17's
+    too). Session 55, 5 (so that a faintly grained surface counts, such as petals_grille_plastic's Plastic card
+    beside the flower, which matches every depth from its own to the flower's alike and takes the flower's):
+    z-key tuning rows -0.32 / -0.14 dB frame / band at K = 5, -0.09 / +0.02 at K = 2 (ostrich_grille -3.5 / -2.3
+    and -4.1 / -2.2, hair_shelves K = 5 -3.2 / -1.5; hair_shelves K = 2 +2.0 / +2.1, fur_grey_wall K = 5 +1.0 /
+    +1.0). Not kept."""
     join_like: float = 0.04
     """Step 12 floods over pixels whose colour is within this of the colour it started from (every sRGB channel,
     0-1)."""

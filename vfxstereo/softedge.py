@@ -172,7 +172,15 @@ class SoftEdgeParams:
     Fewer passes on a stereo pair only (session 49, z-key K = 2 tuning rows against 8, frame / band dB): 2
     passes -0.03 / -0.36 (sheep_duck_wall's small cards +10 frame, two_soft_pots' +3 to +4.6, where the passes
     eat a pale or dark subject; wicker_wall -7.0 / -6.3, tassels_room and trolls_art -2 to -3); 4 passes +0.15 /
-    -0.07, losing 6 / 2 -> 5 / 2. The band is what the passes are for, so 8 stays."""
+    -0.07, losing 6 / 2 -> 5 / 2. The band is what the passes are for, so 8 stays.
+
+    Tried in session 55 against the rows where the soft edges end below the initial volume (30 of 362 over the
+    frame by more than 0.05 dB): the stack and the initial volume each re-rendered at every other view
+    (:meth:`LayerStack.render`), and each connected region of changed pixels (grown by 2 px) put back to the
+    initial volume where its re-rendered error, summed over the view pixels it lands on, is above the initial's.
+    The re-rendering cannot tell: no region's error differed by 10 % (two_soft_pots K = 2, the eaten vest:
+    reverting at any difference +3.1 / -0.7 dB, but through one 17.7k px region; sheep_duck_wall K = 2 -0.1 /
+    -0.5). The passes move pixels where the views are silent or agree with either surface."""
     settle: float = 0.001
     """The passes stop when fewer than this share of the band's pixels would move."""
     relabel_confidence: float = 0.0
