@@ -82,6 +82,17 @@ def test_solve_drops_the_empty_planes_when_asked(tmp_path, views, scene):
     assert (stack.rgba[..., 3].max(axis=(1, 2)) > 0).all()  # every layer written holds something
 
 
+def test_solve_takes_the_rounds_of_soft_edges_asked_for(tmp_path, views, scene):
+    """--soft-rounds reaches the solver (the stack's settings record it); without it, the robust preset's 2."""
+    rounds = {}
+    for flag in ([], ["--soft-rounds", "1"]):
+        out = tmp_path / f"s{len(flag)}.exr"
+        status, _, err = run_cli("solve", *views, "-o", out, "--disparities", "0:7", *flag, "-q")
+        assert status == 0, err
+        rounds[tuple(flag)] = exr.read_stack(out).metadata["settings"]["soft_rounds"]
+    assert len(scene.views) >= 3 and rounds == {(): 2, ("--soft-rounds", "1"): 1}
+
+
 def test_solve_from_dataset_json(tmp_path, views, scene):
     import json
 
@@ -275,6 +286,7 @@ def _bad_cases(tmp: Path, views: list[Path], stack_file: Path, write_multiview_e
          ["not a multi-view", "none"]),
         ("positions for the views", ["solve", str(stereo), "--positions", "0,1,2", "-o", out],
          ["2 views need 2 positions"]),
+        ("no soft rounds", ["solve", *v, "-o", out, "--soft-rounds", "0"], ["--soft-rounds", "1 or more"]),
     ]
 
 
@@ -282,7 +294,7 @@ CASE_NAMES = ["missing view", "different sizes", "one view", "truncated view", "
               "not a stack", "truncated stack", "min >= max", "too many planes", "element size",
               "unwritable folder", "pattern without files", "unknown view", "views of different sizes",
               "one view of a plate", "views with several files", "views of a plain file",
-              "positions for the views"]
+              "positions for the views", "no soft rounds"]
 
 
 @pytest.mark.parametrize("case", CASE_NAMES)
