@@ -203,6 +203,12 @@ def _check_disparities(disparities) -> np.ndarray:
     return d
 
 
+def check_soft_rounds(rounds, name: str = "soft_rounds") -> None:
+    """VfxStereoError unless ``rounds`` (``SolveConfig.soft_rounds``, given as ``name``) is a whole number >= 1."""
+    if isinstance(rounds, bool) or not (isinstance(rounds, int | np.integer) and rounds >= 1):
+        raise VfxStereoError(f"{name} must be a whole number of 1 or more, got {rounds!r}")
+
+
 def _reference_index(camera: Camera) -> int:
     """The view the virtual camera coincides with, or the nearest one."""
     if camera.reference_index is not None:
@@ -291,8 +297,7 @@ def solve(views, *, positions=None, reference: int | None = None, disparities, c
         timings[stage] = timings.get(stage, 0.0) + time.perf_counter() - t0
         return out
 
-    if not (isinstance(config.soft_rounds, int | np.integer) and config.soft_rounds >= 1):
-        raise VfxStereoError(f"soft_rounds must be a whole number >= 1, got {config.soft_rounds!r}")
+    check_soft_rounds(config.soft_rounds)
     if config.depth == "robust":
         return _solve_robust(views, warper, camera, disparities, config, progress=progress, white=white,
                              disparity=disparity,

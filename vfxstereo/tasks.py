@@ -144,11 +144,11 @@ class SolveTask:
     def config(self):
         """The solver's settings: the preset, with ``drop_empty_planes`` and ``soft_rounds``."""
         from vfxstereo.config import SolveConfig
+        from vfxstereo.solver import check_soft_rounds
 
         config = SolveConfig.preset(self.preset)
         if self.soft_rounds is not None:
-            if isinstance(self.soft_rounds, bool) or not isinstance(self.soft_rounds, int) or self.soft_rounds < 1:
-                raise VfxStereoError(f"--soft-rounds must be a whole number of 1 or more, got {self.soft_rounds!r}")
+            check_soft_rounds(self.soft_rounds, "--soft-rounds")  # before any frame is read, in the flag's name
             config = config.replace(soft_rounds=self.soft_rounds)
         return config.replace(keep_empty_planes=False) if self.drop_empty_planes else config
 
