@@ -1628,6 +1628,28 @@ def test_spread_cells_carry_the_wall_from_cell_to_cell_and_keep_a_plain_subject(
     assert not depth_plate.spread_cells(d2, c2, depth_plate.plain_pixels(c2), ring=12, rounds=4)[1].any()
 
 
+
+def test_spread_cells_cross_a_faint_shading_within_their_own_colour_tolerance(rng):
+    """Step 15's ``spread_like``: a wall behind a grille shaded from cell to cell (0.03 in sRGB per cell, as a
+    faintly lit card) is one colour to a tolerance of 0.04, not to step 14's 0.02, so only the former carries the
+    wall's depth across the bars. The default is the wider one."""
+    d, _, colour, cells, _ = _grille_over_a_wall(rng)
+    ys, xs = np.mgrid[0:d.shape[0], 0:d.shape[1]]
+    shade = 0.03 * (xs // 12 + ys // 12)  # one step per cell, across and down
+    wall = (xs < 80) & (xs % 12 >= 2) & (ys % 12 >= 2)  # the grille's cells, rims included
+    colour = colour.copy()
+    colour[wall] = np.clip(0.3 + shade[wall], 0.0, 1.0)[:, None]
+    flat = depth_plate.plain_pixels(colour)
+    cells &= flat
+    first = cells & (xs < 12)
+    d[first] = 2.0
+    rest = cells & ~first
+    assert not depth_plate.spread_cells(d, colour, flat, ring=8, rounds=12, like=0.02)[1].any()
+    out, moved = depth_plate.spread_cells(d, colour, flat, ring=8, rounds=12, like=0.04)
+    np.testing.assert_array_equal(moved, rest)
+    np.testing.assert_array_equal(out[moved], 2.0)
+    assert depth.DepthConfig().spread_like == 0.04
+
 def test_grille_cells_are_on_by_default_and_their_settings_are_checked():
     from vfxstereo.errors import VfxStereoError
 
@@ -1639,7 +1661,7 @@ def test_grille_cells_are_on_by_default_and_their_settings_are_checked():
     for bad in ({"cells_rival": 0.0}, {"cells_share": 1.5}, {"cells_like": 0.0}, {"cells_ring": 1},
                 {"cells_jump": -1.0}, {"cells_spread": -1}, {"cells_farther": 1.5}, {"colour_again": -1.0},
                 {"colour_again_near": -1}, {"spread_share": 1.5}, {"spread_share": -0.1}, {"cells_own": -0.1},
-                {"cells_own": 1.5}):
+                {"cells_own": 1.5}, {"spread_like": 0.0}):
         with pytest.raises(VfxStereoError):
             depth.DepthConfig(**bad)
 

@@ -908,6 +908,22 @@ class DepthConfig:
     K = 5 +0.92 / +0.33, K = 2 +0.54 / +0.22; worst railing_subject_rocks K = 5 -0.04 / -0.02). Middlebury,
     depth only: from all views 9.20 % either way (Bowling1 11.88 -> 11.92, Wood2 3.91 -> 3.87), from the
     classic pair 14.33 % either way (Reindeer 12.86 -> 12.39, Wood1 8.72 -> 9.10)."""
+    spread_like: float | None = 0.04
+    """Step 15's colour tolerance (sRGB 0-1, every channel; None: ``cells_like``), step 12's ``join_like``: a
+    cell is of the colour of the pixels across its bars when it is within this of their median. Step 14 keeps
+    ``cells_like`` (0.02) for the first cells; the spread goes from cells already right, and the views check
+    each move. A faintly grained card behind a grille (petals_grille_plastic's Plastic card, sRGB spread 0.03
+    over a cell) failed 0.02 in every cell, and the cells beside the flower kept the flower's depth.
+
+    Session 56, against ``cells_like`` (0.02): z-key tuning rows (302, frame / band dB) 0.03: +0.14 / +0.10;
+    **0.04: +0.20 / +0.14** (K = 5 +0.15 / +0.10, K = 2 +0.25 / +0.18; curls_wire_midd K = 2 +3.1 / +2.2 and K = 5
+    +2.3 / +1.0, beanie_grille K = 2 +1.5 / +1.5, leaves_wire_bowling K = 2 +1.7 / +1.0, ostrich_grille K = 5
+    +0.9 / +0.6, petals_grille_plastic K = 5 +0.5 / +0.8; worst fence_dof K = 5 -0.85 / -0.64, a blurred wire of
+    the fence's colour over the floor joined to the cell beside it, ostrich_grille K = 2 -0.3 / -0.3), rows
+    losing to the SGBM key 8 / 7 -> 6 / 7; 0.06: +0.21 / +0.14 (K = 5 losing 3 / 5 again). Held-out rows (84,
+    the two scenes built this session among them), scored once after the choice: +0.31 / +0.18 (railing_subject_rocks
+    K = 5 +1.8 / +0.9, wire_plant_laundry K = 2 +1.4 / +1.0; worst wire_plant_laundry K = 5 -0.03 / -0.04), rows
+    losing 3 / 3 either way."""
     cells_farther: float = 0.3
     """Step 15's share of a region's same-coloured pixels across its bars that must lie farther for it to move
     (the first cells beside a wall already right see one or two such neighbours of four)."""
@@ -1132,11 +1148,12 @@ class DepthConfig:
                 or self.cells_ring < 2 or self.cells_spread < 0 or not 0 <= self.cells_farther <= 1
                 or not 0 <= self.cells_own <= 1
                 or self.colour_again < 0 or self.colour_again_near < 0 or self.colour_forward < 0
-                or not (self.spread_share is None or 0 <= self.spread_share <= 1)):
+                or not (self.spread_share is None or 0 <= self.spread_share <= 1)
+                or not (self.spread_like is None or self.spread_like > 0)):
             raise VfxStereoError("depth settings: cells_rival > 0, cells_jump >= 0, 0 <= cells_share <= 1, "
                                  "cells_like > 0, cells_ring >= 2, cells_spread >= 0, 0 <= cells_farther <= 1, "
                                  "0 <= cells_own <= 1, colour_again, colour_again_near, colour_forward >= 0, "
-                                 "0 <= spread_share <= 1")
+                                 "0 <= spread_share <= 1, spread_like > 0")
         if self.own_rows < 1 or not 0 <= self.own_cover <= 1 or not 0 <= self.own_solid <= 1 or self.own_margin < 0:
             raise VfxStereoError("depth settings: own_rows >= 1, 0 <= own_cover <= 1, 0 <= own_solid <= 1, "
                                  "own_margin >= 0")

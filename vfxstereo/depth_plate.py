@@ -193,8 +193,9 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
     if cells and config.cells_spread > 0:
         t0 = time.perf_counter()
         share = config.cells_share if config.spread_share is None else config.spread_share
+        like = config.cells_like if config.spread_like is None else config.spread_like
         checked("spread", t0, *spread_cells(res.disparity, colour, flat, jump=config.cells_jump, share=share,
-                                            like=config.cells_like, ring=config.cells_ring,
+                                            like=like, ring=config.cells_ring,
                                             farther=config.cells_farther, rounds=config.cells_spread,
                                             join_like=config.join_like))
     sent_back = res.disparity != before_cells

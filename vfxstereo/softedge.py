@@ -250,7 +250,16 @@ class SoftEdgeParams:
     (tassels_room K = 5 frame -1.4 dB): in linear light dark colours are close. Middlebury's held-out views cost a
     little (dB, 0 / 0.12 / 0.18 / 0.25): tsukuba 32.85 / 32.90 / 32.67 / 32.51 (the SGBM warp: 32.52), Plastic 39.80
     / 39.09 / 38.93 / 39.00 (40.29), teddy 30.80 / 30.88 / - / 30.95, Wood2 42.78 / 42.71 / - / 42.63: on hard edges
-    between plain surfaces of like colour, nothing tells the two apart."""
+    between plain surfaces of like colour, nothing tells the two apart.
+
+    Session 56: the walk is what eats sheep_duck_wall K = 2's pale sheep over its cream wall, pass after pass (the
+    pixels moved wrongly are put clear by the colour estimate, alpha ~0.05 at a weight of 5e-2 against the prior's
+    1e-2: the sheep's own samples are walked past to a shaded one). Limited, it stops there but not where it is
+    needed (z-key tuning rows, frame / band dB over the head): the walk only within 8 px of the pixel, K = 2 +0.07 /
+    -0.15 (sheep_duck_wall +5.8 / +0.4; doll_plaster -1.3 / -2.0, fur_grey_wall -0.9 / -0.8); only at pixels within
+    12 px of the depth edges of the map the passes start from, K = 2 +0.16 / -0.03, K = 5 -0.12 / -0.12
+    (hair_shelves K = 5 -1.9 / -1.5, sheep_duck_wall K = 5 -1.2 / -1.1). two_soft_pots K = 2's eaten arm is not
+    the walk's (unchanged within 0.3 dB). Not kept."""
     separation_floor: float = 0.003
     """Added to ``|B|^2`` in ``min_separation``'s test (colour^2): below it, colours count as equally far apart
     as at its square root. At 0.01 (until session 47) a dark subject over a dark background was walked past:
