@@ -923,7 +923,10 @@ class DepthConfig:
     losing to the SGBM key 8 / 7 -> 6 / 7; 0.06: +0.21 / +0.14 (K = 5 losing 3 / 5 again). Held-out rows (84,
     the two scenes built this session among them), scored once after the choice: +0.31 / +0.18 (railing_subject_rocks
     K = 5 +1.8 / +0.9, wire_plant_laundry K = 2 +1.4 / +1.0; worst wire_plant_laundry K = 5 -0.03 / -0.04), rows
-    losing 3 / 3 either way. Step 14 at 0.03 as well (``cells_like``), over this: tuning rows -0.12 / -0.08
+    losing 3 / 3 either way. Middlebury, depth only, all 31 sets: from all views 8.19 -> 8.21 % (0.421x SGBM either
+    way, none losing; Lampshade1 5.31 -> 5.71, Wood2 3.63 -> 3.54), from the classic pair 13.82 -> 13.84 %; held-out
+    views (tsukuba, teddy, Cloth1, Plastic, Wood2) 37.85 -> 37.86 dB (Wood2 43.34 -> 43.37, the others unchanged).
+    Step 14 at 0.03 as well (``cells_like``), over this: tuning rows -0.12 / -0.08
     (curls_wire_midd K = 2 -2.6 / -2.1, ostrich_grille K = 5 -1.5 / -1.2; koala_slope K = 2 +2.8 / +0.3): not kept."""
     cells_farther: float = 0.3
     """Step 15's share of a region's same-coloured pixels across its bars that must lie farther for it to move
