@@ -909,8 +909,8 @@ class DepthConfig:
     depth only: from all views 9.20 % either way (Bowling1 11.88 -> 11.92, Wood2 3.91 -> 3.87), from the
     classic pair 14.33 % either way (Reindeer 12.86 -> 12.39, Wood1 8.72 -> 9.10)."""
     spread_like: float | None = 0.04
-    """Step 15's colour tolerance (sRGB 0-1, every channel; None: ``cells_like``), step 12's ``join_like``: a
-    cell is of the colour of the pixels across its bars when it is within this of their median. Step 14 keeps
+    """Step 15's colour tolerance (sRGB 0-1, every channel; None: ``cells_like``), step 12's ``join_like``: a pixel
+    across a cell's bars is of the cell's colour when within this of the cell's median colour. Step 14 keeps
     ``cells_like`` (0.02) for the first cells; the spread goes from cells already right, and the views check
     each move. A faintly grained card behind a grille (petals_grille_plastic's Plastic card, sRGB spread 0.03
     over a cell) failed 0.02 in every cell, and the cells beside the flower kept the flower's depth.
@@ -919,7 +919,7 @@ class DepthConfig:
     **0.04: +0.20 / +0.14** (K = 5 +0.15 / +0.10, K = 2 +0.25 / +0.18; curls_wire_midd K = 2 +3.1 / +2.2 and K = 5
     +2.3 / +1.0, beanie_grille K = 2 +1.5 / +1.5, leaves_wire_bowling K = 2 +1.7 / +1.0, ostrich_grille K = 5
     +0.9 / +0.6, petals_grille_plastic K = 5 +0.5 / +0.8; worst fence_dof K = 5 -0.85 / -0.64, a blurred wire of
-    the fence's colour over the floor joined to the cell beside it, ostrich_grille K = 2 -0.3 / -0.3), rows
+    nearly the floor's colour joined to the cell beside it, ostrich_grille K = 2 -0.3 / -0.3), rows
     losing to the SGBM key 8 / 7 -> 6 / 7; 0.06: +0.21 / +0.14 (K = 5 losing 3 / 5 again). Held-out rows (84,
     the two scenes built this session among them), scored once after the choice: +0.31 / +0.18 (railing_subject_rocks
     K = 5 +1.8 / +0.9, wire_plant_laundry K = 2 +1.4 / +1.0; worst wire_plant_laundry K = 5 -0.03 / -0.04), rows
