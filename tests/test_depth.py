@@ -1628,7 +1628,6 @@ def test_spread_cells_carry_the_wall_from_cell_to_cell_and_keep_a_plain_subject(
     assert not depth_plate.spread_cells(d2, c2, depth_plate.plain_pixels(c2), ring=12, rounds=4)[1].any()
 
 
-
 def test_spread_cells_cross_a_faint_shading_within_their_own_colour_tolerance(rng):
     """Step 15's ``spread_like``: a wall behind a grille shaded from cell to cell (0.03 in sRGB per cell, as a
     faintly lit card) is one colour to a tolerance of 0.04, not to step 14's 0.02, so only the former carries the
@@ -1649,6 +1648,7 @@ def test_spread_cells_cross_a_faint_shading_within_their_own_colour_tolerance(rn
     np.testing.assert_array_equal(moved, rest)
     np.testing.assert_array_equal(out[moved], 2.0)
     assert depth.DepthConfig().spread_like == 0.04
+
 
 def test_grille_cells_are_on_by_default_and_their_settings_are_checked():
     from vfxstereo.errors import VfxStereoError
