@@ -949,11 +949,12 @@ def grille_cells(disparity: np.ndarray, rival_map: np.ndarray, colour: np.ndarra
     them to match); this step then sends 55 % of them to the rival map's 2.1 (step 15 carries that to 66 %,
     step 16's rims to 82 %, step 18 to 87 %), and none to 6.8, because no pixel of the card's colour is at 6.8
     anywhere in the map: the only evidence of 6.8 is the card's right edge against the wall (its top and bottom
-    edges are level: matching along the rows cannot place them), and the window matched that edge at 6.8 on
-    the *wall's* side. Step 13 would claim such an edge for the plain side, but only towards a nearer depth,
-    and the card's cells hold the slats' nearer one. ``own_plain`` cannot act without a seed of the card's colour
-    at its depth. The fix would be a step 13 for cells (an edge beside a grille cell, between the bars' depth
-    and the rival's, claims the cell) followed by a spread that may move cells forward; not tried.
+    edges are level: matching along the rows cannot place them), and before this step (K = 5) the map holds 6.8 there
+    on 42-47 of the edge's 160 rows, on the *wall's* side (the 5 px beyond the card), against 5-16 rows on the
+    card's own last 4 columns, which mostly hold the slats' depth (143-155 rows). So neither step 13 (a ridge of
+    texture beside a plain region, claimed only towards a nearer depth) nor ``own_plain`` (a seed of the card's
+    colour at its depth) has anything to act on; a step 13 for cells would first need the edge matched on the
+    card's side.
     """
     from scipy import ndimage
 
