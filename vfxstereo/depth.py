@@ -1085,6 +1085,10 @@ class DepthConfig:
     moved pixels or each pixel alone; on a random-dot board the check puts back every wrong move of ratio 0.5)
     did not help: ratio 3 -0.02 / -0.03; -0.02 / -0.02, 1.5 +0.02 / -0.02; -0.27 / -0.17, 1.0 -0.04 / -0.10;
     -0.45 / -0.42. Not kept."""
+    strips: bool = True
+    """Step 20 (:func:`vfxstereo.depth_plate.level_strips`), on the whole plate, last: a strip up to 3 rows tall
+    that the map puts nearer than the rows just above and below, of one side's colour, takes that side's depth:
+    the level top or bottom edge of a card that semi-global matching gave the depth of a grille's bars."""
     rim_passes: int = 2
     """Rounds of step 19 (a rim 2 px wide goes in two)."""
     rim_radius: int = 3

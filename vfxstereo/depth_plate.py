@@ -67,6 +67,11 @@ their memory budget; :func:`_reopened` then runs these steps once on the whole p
    (on Middlebury four fifths of the bad pixels near depth jumps are too near, and most of those lie within
    2 px of the surface whose depth they took). Not checked against the views: where it acts, the views are
    what put the rim in front. ``DepthConfig.rim_ratio`` has the numbers.
+20. Level strips (``strips``, :func:`level_strips`), on the whole plate, after step 19: a strip at most 3 rows tall
+   that the map puts nearer than the rows just above and below it, over 15 px or more along the row, and whose
+   colour is one side's (within 0.025) and not the other's, takes that side's depth: the top or bottom edge of a
+   card or board, level with a horizontal rig's baseline, that semi-global matching gave the depth of a grille's
+   bars crossing it (the reverse of step 18). Not checked against the views, as step 19: they put it there.
 
 Where the map's foreground fattening costs the z-key most (session 27, the z-key scenes that were tuning scenes
 then, 68 rows): of the near-edge pixels put more than 1 px too near (19 % of the pixels within 4 px of a true
@@ -127,7 +132,8 @@ from vfxstereo.progress import Progress, report
 def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConfig, progress) -> DepthResult:
     """``res`` after the whole-plate steps 9-19.
 
-    Reopen, colour_reopen, thin, join, own, cells, spread, colour again, colour forward, boards, rails, rim colours.
+    Reopen, colour_reopen, thin, join, own, cells, spread, colour again, colour forward, boards, rails, rim colours,
+    level strips.
     """
     from vfxstereo.layers import plane_index
     from vfxstereo.sweep import matching_values
@@ -253,6 +259,14 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
             res.disparity = rims
             changed = True
         res.timings["rim colours"] = time.perf_counter() - t0
+    if config.strips:
+        t0 = time.perf_counter()
+        strips, moved = level_strips(res.disparity, colour if colour is not None
+                                     else matching_values(views[reference], "srgb", 1.0))
+        if moved.any():
+            res.disparity = strips
+            changed = True
+        res.timings["level strips"] = time.perf_counter() - t0
     if changed:  # the planes of the map the steps left, once
         res.index = plane_index(res.disparity, warper.disparities)
     return res
@@ -1162,6 +1176,61 @@ def level_rails(disparity: np.ndarray, colour: np.ndarray, *, jump: float = 1.5,
         move = dw[cy, cx] < target - jump
         proposed[ys, sl[1]][cy[move], cx[move]] = target
     return proposed, proposed != d
+
+
+def level_strips(disparity: np.ndarray, colour: np.ndarray, *, jump: float = 1.5, height: int = 3,
+                 length: int = 15, like: float = 0.025) -> tuple[np.ndarray, np.ndarray]:
+    """Step 20: ``(map, moved)``: thin level strips nearer than both sides, of one side's colour, join that side.
+
+    A strip is up to ``height`` rows whose map agrees within 1 px in each column and lies nearer by more than
+    ``jump`` than the row just above it and the row just below it; the strips' pixels are grouped (8-connected)
+    and a group at least ``length`` px wide whose mean colour (sRGB ``colour``) is within ``like`` of the mean of
+    the rows on one side (every channel) and not of the other's takes, column by column, that side's depth. A
+    level edge (the top of a card) shifts along itself under a horizontal rig, so semi-global matching carries
+    along it the depth of whatever crosses it (a grille's bars): a line of the bars' depth, in the card's colour.
+    A real rail or bar has its own colour and stays (step 18 brings those forward). Measured in session 57, on the
+    head's final maps of the z-key tuning scenes (58 maps, the later stages run again from them): 12 groups moved,
+    10 wholly or mostly right (curls_wire_midd's Midd2 card, petals_grille_plastic's Plastic card, beanie_grille,
+    duck_monster_baby's Baby3 card), the other 2 (hat_slats_lampshade's card, whose map is itself wrong) onto
+    their own surface; see :attr:`vfxstereo.depth.DepthConfig.strips` for the z-key and Middlebury numbers.
+    """
+    from scipy import ndimage
+
+    d = np.asarray(disparity, np.float32)
+    c = np.asarray(colour, np.float32)
+    h, w = d.shape
+    strip = np.zeros((h, w), bool)
+    above = np.full((h, w), -1, np.int64)  # the row just above / below the strip a pixel belongs to
+    below = np.full((h, w), -1, np.int64)
+    for k in range(1, height + 1):  # strips of k rows, y .. y+k-1 for y = 1 .. h-k-1
+        n = h - k - 1
+        if n < 1:
+            break
+        blocks = np.stack([d[1 + j:1 + j + n] for j in range(k)])  # (k, n, w): the strip's rows
+        lo, hi = blocks.min(axis=0), blocks.max(axis=0)
+        ok = (hi - lo <= 1.0) & (lo > d[:n] + jump) & (lo > d[1 + k:1 + k + n] + jump)
+        ys, xs = np.nonzero(ok)  # y - 1
+        for j in range(k):
+            strip[ys + 1 + j, xs] = True
+            above[ys + 1 + j, xs] = ys
+            below[ys + 1 + j, xs] = ys + 1 + k
+    out = d.copy()
+    if not strip.any():
+        return out, np.zeros((h, w), bool)
+    labels, _ = ndimage.label(strip, structure=np.ones((3, 3), bool))
+    for i, sl in enumerate(ndimage.find_objects(labels), 1):
+        if sl is None or sl[1].stop - sl[1].start < length:
+            continue
+        ys, xs = np.nonzero(labels[sl] == i)
+        ys, xs = ys + sl[0].start, xs + sl[1].start
+        own = c[ys, xs].mean(axis=0)
+        ya, yb = above[ys, xs], below[ys, xs]
+        da = np.abs(own - c[ya, xs].mean(axis=0)).max()
+        db = np.abs(own - c[yb, xs].mean(axis=0)).max()
+        if min(da, db) >= like or max(da, db) < like:
+            continue
+        out[ys, xs] = d[ya, xs] if da < db else d[yb, xs]
+    return out, out != d
 
 
 def plain_pixels(colour: np.ndarray, plain: float = 3.0) -> np.ndarray:
