@@ -1786,3 +1786,52 @@ def test_level_rails_are_on_by_default_and_their_settings_are_checked():
     for bad in ({"rails_contrast": -0.1}, {"rails_pieces": 0}):
         with pytest.raises(VfxStereoError):
             depth.DepthConfig(**bad)
+
+
+def _card_edge(rng, *, strip_colour=None, rows=2, width=140, card=0.6):
+    """(disparity, colour, strip): a dim textured wall at d = 2 above row 50 and a brighter textured card at d = 5
+    from row 50 down, whose top ``rows`` rows the map has at a grille's depth, 12, over ``width`` px (from x = 10):
+    the card's level top edge, along which semi-global matching carried the depth of the bars crossing it."""
+    from scipy import ndimage
+
+    h, w = 100, 200
+    colour = (0.35 + 0.03 * ndimage.gaussian_filter(rng.standard_normal((h, w, 3)), (1, 1, 0))).astype(np.float32)
+    colour[50:] += card - 0.35
+    d = np.full((h, w), 2.0, np.float32)
+    d[50:] = 5.0
+    strip = np.zeros((h, w), bool)
+    strip[50:50 + rows, 10:10 + width] = True
+    d[strip] = 12.0
+    if strip_colour is not None:
+        colour[strip] = strip_colour
+    return d, colour, strip
+
+
+@pytest.mark.parametrize("rows", [1, 2, 3])
+def test_level_strips_give_a_cards_level_edge_back_to_the_card(rng, rows):
+    d, colour, strip = _card_edge(rng, rows=rows)
+    out, moved = depth_plate.level_strips(d, colour)
+    np.testing.assert_array_equal(moved, strip)  # the strip, and nothing else
+    np.testing.assert_array_equal(out[moved], 5.0)  # the card's depth (the side of its colour), not the wall's
+    np.testing.assert_array_equal(out[~moved], d[~moved])
+
+
+@pytest.mark.parametrize("case", ["a bar of its own colour", "too short", "four rows", "both sides alike"])
+def test_level_strips_leave_what_is_not_a_level_edge(rng, case):
+    kw = {"a bar of its own colour": {"strip_colour": 0.9}, "too short": {"width": 12}, "four rows": {"rows": 4},
+          "both sides alike": {"card": 0.35}}[case]
+    d, colour, _ = _card_edge(rng, **kw)
+    out, moved = depth_plate.level_strips(d, colour)
+    assert not moved.any(), case
+    np.testing.assert_array_equal(out, d)
+
+
+def test_level_strips_leave_the_rails_step_18_brought_forward(rng):
+    """Step 20 is step 18 the other way round: a grille's level bars, of their crossings' colour and not the wall's,
+    stay at the depth step 18 gave them."""
+    d, colour, rails = _level_grille(rng)
+    railed, moved = depth_plate.level_rails(d, colour)
+    assert moved.any()
+    out, moved = depth_plate.level_strips(railed, colour)
+    assert not moved.any()
+    assert depth.DepthConfig().strips
