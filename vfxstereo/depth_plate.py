@@ -1,4 +1,4 @@
-"""The robust depth stage's whole-plate steps 9-19: the map of :mod:`vfxstereo.depth`'s steps 1-8, corrected.
+"""The robust depth stage's whole-plate steps 9-20: the map of :mod:`vfxstereo.depth`'s steps 1-8, corrected.
 
 :func:`vfxstereo.depth.robust_depth` solves steps 1-8 in horizontal strips when the cost volumes exceed
 their memory budget; :func:`_reopened` then runs these steps once on the whole plate's map:
@@ -130,7 +130,7 @@ from vfxstereo.progress import Progress, report
 
 
 def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConfig, progress) -> DepthResult:
-    """``res`` after the whole-plate steps 9-19.
+    """``res`` after the whole-plate steps 9-20.
 
     Reopen, colour_reopen, thin, join, own, cells, spread, colour again, colour forward, boards, rails, rim colours,
     level strips.
