@@ -60,9 +60,10 @@ their memory budget; :func:`_reopened` then runs these steps once on the whole p
    placed nearer than what lies around the line, at four or more places, takes their depth along its length,
    where the line has their colour and the views do not contradict the move: a grille's bar, a rail or a wire
    along a horizontal rig's baseline, which shifts along itself, so that matching along the rows cannot see it.
-19. Rim colours (``rim_ratio``, :func:`rim_colours`), on the whole plate, last: a pixel on the near side of a depth jump
-   (3 x 3) takes the back's disparity where its colour is nearer the mean colour of the back side than of the
-   front side (7 x 7, the pixels at jumps left out) by more than ``rim_ratio`` (3) in distance; two rounds.
+19. Rim colours (``rim_ratio``, :func:`rim_colours`), on the whole plate, before step 20: a pixel on the near side
+   of a depth jump (3 x 3) takes the back's disparity where its colour is nearer the mean colour of the back side
+   than of the front side (7 x 7, the pixels at jumps left out) by more than ``rim_ratio`` (3) in distance; two
+   rounds.
    The one- and two-pixel rim of background the window of steps 1-3 leaves around a subject on either side
    (on Middlebury four fifths of the bad pixels near depth jumps are too near, and most of those lie within
    2 px of the surface whose depth they took). Not checked against the views: where it acts, the views are
