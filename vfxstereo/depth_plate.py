@@ -140,11 +140,11 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
     from vfxstereo.sweep import matching_values
 
     changed = False
-    # the plate in sRGB, for the colour tests of steps 10 and 12-18: converted once
+    # the plate in sRGB, for the colour tests of steps 10, 12-18 and 20: converted once
     cells = res.cells is not None
     colour = (matching_values(views[reference], "srgb", 1.0)
               if config.colour_reopen or config.join or config.own or cells or config.colour_again > 0
-              or config.colour_forward > 0 or config.boards or config.rails else None)
+              or config.colour_forward > 0 or config.boards or config.rails or config.strips else None)
     pair, res.pair = res.pair, None  # step 6's map of the pair's other view: step 9's check on a pair, then freed
     if config.reopen and config.reopen_passes > 0 and views.shape[0] - 1 >= config.reopen_views:
         t0 = time.perf_counter()
@@ -262,8 +262,7 @@ def _reopened(res: DepthResult, views, warper, reference: int, config: DepthConf
         res.timings["rim colours"] = time.perf_counter() - t0
     if config.strips:
         t0 = time.perf_counter()
-        strips, moved = level_strips(res.disparity, colour if colour is not None
-                                     else matching_values(views[reference], "srgb", 1.0))
+        strips, moved = level_strips(res.disparity, colour)
         if moved.any():
             res.disparity = strips
             changed = True
