@@ -230,8 +230,11 @@ class SolveConfig:
     Middlebury's held-out views (K = 4 solves) fall on four of five sets: tsukuba 33.82 -> 33.48 dB, teddy
     31.22 -> 30.80, Cloth1 41.28 -> 41.16, Wood2 44.18 -> 44.10 (Plastic 39.10 -> 39.26; mean 37.92 -> 37.76).
     On a stereo pair (the gate lifted, K = 2 tuning rows): -0.11 / +0.02, losing 6 / 2 -> 7 / 1; session 45's
-    first form (re-solving from the front map) measured -0.11 / -0.02 there -- hence one round on a pair. Each
-    round costs the stages after the depth again."""
+    first form (re-solving from the front map) measured -0.11 / -0.02 there -- hence one round on a pair. Again
+    in session 58, on that head's maps (K = 2 tuning rows, 157): 32.00 / 25.75 -> 31.86 / 25.65, losing 8 -> 10
+    (curls_wire_midd's card at d = 11.6 -3.8 / -3.8, koala_slope -2.5 / -2.5, witch_monster -1.8 / -2.1;
+    beanie_grille +5.8 / +5.8, petals_grille_plastic +2.3 / +3.4). Each round costs the stages after the depth
+    again."""
     keep_empty_planes: bool = True
     """Robust depth only: the stack has a layer for every plane asked for. False: only the planes the depth
     map uses (the front surface's planes; hidden cells and soft edges lie on them too), so a 4096x2160 plate
