@@ -531,7 +531,17 @@ class DepthConfig:
     0.0), rows losing 4 / 3 -> 6 / 4 (two rows that tied or won by < 0.5 dB now lose by 0.01-0.05 dB, one band
     row that tied loses by 4.6 dB: a small card under the artichoke's hairs). Middlebury: see the module
     docstring. The versions that also opened islands inside a surface gained more on the first seven tuning
-    scenes and lost on the others (module docstring)."""
+    scenes and lost on the others (module docstring).
+
+    Tried in session 58 and not kept: the groups that reach the frame's edge kept as well (open there: a gap
+    between petals or leaves that the frame cuts, whose farther surface may go on beyond it). On the stored final
+    maps of the 58 tuning scene-rigs such groups (10 px or more) were 22, 828 px, 684 of them put right (37 right
+    before). In the stage (z-key benchmark, all 398 rows, the depth maps solved again, frame / band dB): 33.09 /
+    26.38 -> 33.10 / 26.40; tuning K = 5 +0.02 / +0.02, K = 2 +0.00 / +0.02 (fur_grey_wall K = 5 +2.4 / +1.8,
+    doll_plant K = 2 +1.6 / +1.7), held-out K = 5 0 / 0, K = 2 -0.06 / -0.01 (flowers_cone_cloth's full card at
+    d = 2.9 -0.25 / -0.56); no row changed sides against the SGBM key. Middlebury, depth only: 8.21 -> 8.24 % bad
+    (Midd2 11.92 -> 12.84 %, 14 sets +0.01). The petal gaps cut by the frame's top edge that cost hair_shelves
+    most (``depth_plate``'s module docstring) do not move: no farther pixel within reach has their colour."""
     colour_radius: int = 40
     """Reach of step 10's window (px; steps 16's too).
 
