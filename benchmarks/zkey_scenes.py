@@ -68,6 +68,14 @@ TRUE_DEPTH = "ours from the true depth"
 """With ``--true-depth``: ours' later stages (initial volume, refinement, soft edges) run from the true depth
 map instead of the depth stage's -- how far they would go with exact depth, so what is left to the depth stage
 (session 26: +1.64 dB over the true-depth key on the band, against -5.10 from our depth)."""
+DEPTH_ORACLES = ("ours, too-near at edges set true", "ours, too-near elsewhere set true", "ours, too-far set true")
+"""With ``--depth-oracles``: ours' later stages run from our depth map with one class of its errors (more than
+1 px) set to the true depth -- the pixels put too near within :data:`ORACLE_EDGE` px of a true depth edge (the
+fattening), those put too near farther out, and those put too far: what each class of the depth stage's errors
+costs the comp once the soft edges have done what they can (session 58, the 28 tuning scenes' rows, band dB:
++2.64 / +0.44 / +0.33 at K = 5, +2.76 / +0.95 / +0.81 at K = 2)."""
+ORACLE_EDGE = 4
+"""Reach (px) of a true depth edge (a step of more than 1 px between neighbours) for :data:`DEPTH_ORACLES`."""
 CYCLES = ("sphere_plant", "plush_wall", "fence_dof")
 """Cycles-rendered scenes (benchmarks/cycles_scenes.py); since session 27 all of them are tuning scenes
 (``fence_dof`` was held out until then and, like the older held-out scenes, has been used to judge changes)."""
@@ -165,13 +173,30 @@ def solve_cached(solve_it, depth_cache: Path | None, name: str, K: int, config: 
     return res
 
 
+def oracle_maps(disparity: np.ndarray, d_true: np.ndarray) -> dict[str, np.ndarray]:
+    """:data:`DEPTH_ORACLES`' maps: ``disparity`` with one class of its errors set to ``d_true`` (clipped to the
+    planes)."""
+    from scipy import ndimage
+
+    t = np.clip(d_true, PLANES[0], PLANES[-1]).astype(np.float32)
+    d = np.asarray(disparity, np.float32)
+    near, far = d > t + 1, d < t - 1
+    jump = np.zeros(t.shape, bool)
+    jump[:, 1:] |= np.abs(np.diff(t, axis=1)) > 1
+    jump[1:, :] |= np.abs(np.diff(t, axis=0)) > 1
+    edge = ndimage.binary_dilation(jump, iterations=ORACLE_EDGE)
+    fixed = (near & edge, near & ~edge, far)
+    return {m: np.where(f, t, d).astype(np.float32) for m, f in zip(DEPTH_ORACLES, fixed, strict=True)}
+
+
 def run_scene(name: str, K: int, preset: str, *, figures: bool = True, overrides: dict | None = None,
-              depth_cache: Path | None = None, true_depth: bool = False) -> list[dict]:
+              depth_cache: Path | None = None, true_depth: bool = False, oracles: bool = False) -> list[dict]:
     """Solve one scene with one rig size and score every element; one row per element.
 
     ``overrides``: settings on top of the preset (:func:`configured`); ``depth_cache``: a folder where the depth
     stage's disparity maps are kept and reused (``solve(disparity=...)``); ``true_depth``: also score the later
-    stages run from the true depth map (:data:`TRUE_DEPTH`).
+    stages run from the true depth map (:data:`TRUE_DEPTH`); ``oracles``: also from our map with one class of its
+    errors set right (:data:`DEPTH_ORACLES`).
     """
     scene = build_scene(name, K)
     views = scene.views()
@@ -190,9 +215,11 @@ def run_scene(name: str, K: int, preset: str, *, figures: bool = True, overrides
     d_sgbm = baselines.sgbm_disparity(plate, views[right], float(scene.positions[right]
                                                                    - scene.positions[scene.reference]), PLANES)
     d_true = scene.gt_disparity(0.5)
-    oracle = None
+    extra = {}  # later stages from other maps
     if true_depth:  # the later stages from an exact depth map: what is left to the depth stage
-        oracle = solve_it(np.clip(d_true, PLANES[0], PLANES[-1]).astype(np.float32)).stack
+        extra[TRUE_DEPTH] = solve_it(np.clip(d_true, PLANES[0], PLANES[-1]).astype(np.float32)).stack
+    if oracles:  # ... and from ours with one class of its errors set right
+        extra.update({m: solve_it(d).stack for m, d in oracle_maps(res.disparity, d_true).items()})
     band = scene.band()
     # where our final front surface (alpha > 0.5) lies against the truth: too near, right, too far (> 1 px)
     ours_front = np.nan_to_num(stack.disparity_map(0.5), nan=-np.inf)
@@ -208,8 +235,8 @@ def run_scene(name: str, K: int, preset: str, *, figures: bool = True, overrides
             "SGBM key": baselines.hard_key(plate, d_sgbm, element, D),
             "true-depth key": baselines.hard_key(plate, d_true, element, D),
         }
-        if oracle is not None:
-            comps[TRUE_DEPTH] = composite.insert(oracle, element, disparity=D)[..., :3]
+        for m, other in extra.items():
+            comps[m] = composite.insert(other, element, disparity=D)[..., :3]
         row = {"scene": name, "K": K, "element": el_name, "D": D, "seconds": sw.seconds}
         on_band = band & (element[..., 3] > 0)  # soft edges the element shows through or around
         if on_band.sum() < 50:
@@ -311,7 +338,7 @@ def _figure(path, truth, comps, band) -> None:
 
 def tables(rows: list[dict], title: str) -> str:
     """The per-row table and the summary."""
-    methods = METHODS + ((TRUE_DEPTH,) if rows and all(TRUE_DEPTH in r for r in rows) else ())
+    methods = METHODS + tuple(m for m in (TRUE_DEPTH, *DEPTH_ORACLES) if rows and all(m in r for r in rows))
     headers = ["scene", "K", "element", *[f"{m} (frame / band)" for m in methods], "s"]
     body = []
     for r in rows:
@@ -346,6 +373,14 @@ def tables(rows: list[dict], title: str) -> str:
             f"the true-depth key on the band (ours from our depth: {gap:+.2f}); its later stages are worse than "
             f"its initial volume (the true-depth key, frame, > 0.05 dB) on "
             f"{sum(min(r[TRUE_DEPTH][0], CAP) < min(r['true-depth key'][0], CAP) - 0.05 for r in rows)}/{n} rows.")
+    if DEPTH_ORACLES[0] in methods:
+        for K in sorted({r["K"] for r in rows}):
+            sub = [r for r in rows if r["K"] == K]
+            base = np.mean([min(r["ours"][1], CAP) for r in sub])
+            parts = [f"{m.split(', ', 1)[1]} {np.mean([min(r[m][1], CAP) for r in sub]) - base:+.2f}"
+                     for m in DEPTH_ORACLES]
+            summary.append(f"K = {K}: ours' later stages from our map with one class of its errors set to the truth "
+                           f"(band dB against ours): " + "; ".join(parts) + ".")
     split = [r["band error by depth"] for r in rows if "band error by depth" in r]
     if split:
         ours = np.sum([b["ours"] for b in split], axis=0)
@@ -388,14 +423,14 @@ def tables(rows: list[dict], title: str) -> str:
 
 
 def _scene_job(args) -> list[dict]:
-    name, K, preset, figures, overrides, depth_cache, true_depth = args
+    name, K, preset, figures, overrides, depth_cache, true_depth, oracles = args
     return run_scene(name, K, preset, figures=figures, overrides=overrides, depth_cache=depth_cache,
-                     true_depth=true_depth)
+                     true_depth=true_depth, oracles=oracles)
 
 
 def run(*, names=None, held_out: bool = False, every: bool = True, Ks=(5, 2), preset: str = "robust",
         figures: bool = True, quick: bool = False, overrides: dict | None = None, depth_cache: Path | None = None,
-        jobs: int = 1, rows_out: list | None = None, true_depth: bool = False) -> str:
+        jobs: int = 1, rows_out: list | None = None, true_depth: bool = False, oracles: bool = False) -> str:
     """Score the scenes (``make bench``: all of them; the script's own default: the tuning scenes).
 
     ``jobs`` > 1 solves (scene, K) pairs in that many processes, each pair in a fresh one; ``rows_out``
@@ -409,7 +444,7 @@ def run(*, names=None, held_out: bool = False, every: bool = True, Ks=(5, 2), pr
     if any(n in CYCLES for n in names) and not ensure_cycles_scenes():
         print("  no Cycles scenes (no .venv-blender to render them): scored without them", file=sys.stderr)
         names = [n for n in names if n not in CYCLES]
-    tasks = [(name, K, preset, figures, overrides, depth_cache, true_depth) for name in names for K in Ks]
+    tasks = [(name, K, preset, figures, overrides, depth_cache, true_depth, oracles) for name in names for K in Ks]
     if jobs > 1:
         pool = multiprocessing.get_context("spawn").Pool(jobs, maxtasksperchild=1)
         results = pool.imap(_scene_job, tasks)
@@ -476,11 +511,13 @@ def main(argv=None) -> int:
     p.add_argument("--no-figures", action="store_true")
     p.add_argument("--true-depth", action="store_true",
                    help="also score ours' later stages run from the true depth map (what is left to the depth stage)")
+    p.add_argument("--depth-oracles", action="store_true",
+                   help="also score them from our map with one class of its errors set to the truth (3 more solves)")
     a = p.parse_args(argv)
     rows: list[dict] = []
     text = run(names=a.scenes, held_out=a.held_out, every=a.all and not a.held_out, Ks=tuple(a.K), preset=a.preset,
                figures=not a.no_figures, overrides=a.config, depth_cache=a.depth_cache, jobs=a.jobs,
-               rows_out=rows, true_depth=a.true_depth)
+               rows_out=rows, true_depth=a.true_depth, oracles=a.depth_oracles)
     if a.compare is not None:
         text += "\n" + compare(rows, json.loads(a.compare.read_text()))
     print(text)
