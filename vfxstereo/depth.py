@@ -518,7 +518,14 @@ class DepthConfig:
     """Views that must see the candidate with the plate's colour (its error: the ``reopen_views``-th least of
     the views'); a rig with fewer other views skips the step. With 1, a stereo pair's one other view decides
     alone, and beside a thin wire or a filament the pixel's own depth fails there (half-occluded) while a
-    chance match passes the ratio: session 19's first measurement (``reopen``) lost most at K = 2."""
+    chance match passes the ratio: session 19's first measurement (``reopen``) lost most at K = 2.
+
+    Session 58, step 9 on with 1 at K = 5 (a narrow gap between two subjects, such as witch_monster's strip of
+    the card between the witch and the monster's fur, is seen by one view of four pixel by pixel): z-key K = 5
+    rows, the depth maps solved again, tuning (157) 35.17 / 27.84 -> 34.68 / 27.63 dB, held out (42) 32.61 /
+    26.11 -> 32.57 / 26.10, rows losing to the SGBM key 9 -> 12 and 0 -> 1 (shelf_grille's card at d = 3 -10.6 /
+    -20.1, artichoke_books' near-exact card at d = 4 -5.7 / -6.4, two_soft_pots -1.8 / -4.3; leaves_wire_bowling
+    +1.6 to +2.8, doll_plant +2.6, tassels_bear_bowling +1.8 / +2.7). One view's chance matches win again."""
     colour_reopen: bool = True
     """Step 10 (:func:`reopen_by_colour`), on the whole plate: a pixel whose colour is far more common among the
     farther surfaces beside it than on its own surface takes the nearest farther one's depth, where that joins
