@@ -525,7 +525,8 @@ class DepthConfig:
     rows, the depth maps solved again, tuning (157) 35.17 / 27.84 -> 34.68 / 27.63 dB, held out (42) 32.61 /
     26.11 -> 32.57 / 26.10, rows losing to the SGBM key 9 -> 12 and 0 -> 1 (shelf_grille's card at d = 3 -10.6 /
     -20.1, artichoke_books' near-exact card at d = 4 -5.7 / -6.4, two_soft_pots -1.8 / -4.3; leaves_wire_bowling
-    +1.6 to +2.8, doll_plant +2.6, tassels_bear_bowling +1.8 / +2.7). One view's chance matches win again."""
+    +1.6 to +2.8, doll_plant +2.6, tassels_bear_bowling +1.8 / +2.7; witch_monster itself -0.4 to +0.5). One view's
+    chance matches win again."""
     colour_reopen: bool = True
     """Step 10 (:func:`reopen_by_colour`), on the whole plate: a pixel whose colour is far more common among the
     farther surfaces beside it than on its own surface takes the nearest farther one's depth, where that joins
