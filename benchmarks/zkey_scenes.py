@@ -72,7 +72,7 @@ DEPTH_ORACLES = ("ours, too-near at edges set true", "ours, too-near elsewhere s
 """With ``--depth-oracles``: ours' later stages run from our depth map with one class of its errors (more than
 1 px) set to the true depth -- the pixels put too near within :data:`ORACLE_EDGE` px of a true depth edge (the
 fattening), those put too near farther out, and those put too far: what each class of the depth stage's errors
-costs the comp once the soft edges have done what they can (session 58, the 28 tuning scenes' rows, band dB:
+costs the comp once the soft edges have done what they can (session 58, the 29 synthetic tuning scenes' rows, band dB:
 +2.64 / +0.44 / +0.33 at K = 5, +2.76 / +0.95 / +0.81 at K = 2)."""
 ORACLE_EDGE = 4
 """Reach (px) of a true depth edge (a step of more than 1 px between neighbours) for :data:`DEPTH_ORACLES`."""

@@ -111,7 +111,7 @@ edges had already cleared the pocket from the views, and after the move they lea
 sheep_duck_wall's pockets are not one plain surface of the map and did not move.
 
 The same question after the soft edges (session 58): the later stages run again from our map with one class of
-its errors set to the truth (the 28 tuning scenes, 154 rows a rig, mean band dB, K = 5 / K = 2). Ours 27.91 /
+its errors set to the truth (the 29 synthetic tuning scenes, 154 rows a rig, mean band dB, K = 5 / K = 2). Ours 27.91 /
 25.87; the too-near pixels within 4 px of a true depth edge set right 30.55 / 28.63 (+2.64 / +2.76), the too-near
 pixels farther out 28.35 / 26.82 (+0.44 / +0.95), the too-far ones 28.24 / 26.68 (+0.33 / +0.81); the true map
 31.57 / 30.62, above the true-depth key's 29.12 by 2.4 / 1.5 dB, so the issue's target is within the later
