@@ -173,12 +173,12 @@ def solve_cached(solve_it, depth_cache: Path | None, name: str, K: int, config: 
     return res
 
 
-def oracle_maps(disparity: np.ndarray, d_true: np.ndarray) -> dict[str, np.ndarray]:
-    """:data:`DEPTH_ORACLES`' maps: ``disparity`` with one class of its errors set to ``d_true`` (clipped to the
-    planes)."""
+def oracle_maps(disparity: np.ndarray, exact: np.ndarray) -> dict[str, np.ndarray]:
+    """:data:`DEPTH_ORACLES`' maps: ``disparity`` with one class of its errors set to ``exact`` (the true map
+    clipped to the planes, as ``--true-depth`` solves from it)."""
     from scipy import ndimage
 
-    t = np.clip(d_true, PLANES[0], PLANES[-1]).astype(np.float32)
+    t = np.asarray(exact, np.float32)
     d = np.asarray(disparity, np.float32)
     near, far = d > t + 1, d < t - 1
     jump = np.zeros(t.shape, bool)
@@ -216,10 +216,11 @@ def run_scene(name: str, K: int, preset: str, *, figures: bool = True, overrides
                                                                    - scene.positions[scene.reference]), PLANES)
     d_true = scene.gt_disparity(0.5)
     extra = {}  # later stages from other maps
+    exact = np.clip(d_true, PLANES[0], PLANES[-1]).astype(np.float32)  # the true map on the planes' range
     if true_depth:  # the later stages from an exact depth map: what is left to the depth stage
-        extra[TRUE_DEPTH] = solve_it(np.clip(d_true, PLANES[0], PLANES[-1]).astype(np.float32)).stack
+        extra[TRUE_DEPTH] = solve_it(exact).stack
     if oracles:  # ... and from ours with one class of its errors set right
-        extra.update({m: solve_it(d).stack for m, d in oracle_maps(res.disparity, d_true).items()})
+        extra.update({m: solve_it(d).stack for m, d in oracle_maps(res.disparity, exact).items()})
     band = scene.band()
     # where our final front surface (alpha > 0.5) lies against the truth: too near, right, too far (> 1 px)
     ours_front = np.nan_to_num(stack.disparity_map(0.5), nan=-np.inf)
