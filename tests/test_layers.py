@@ -191,8 +191,8 @@ def test_soft_edge_settings_that_cannot_work_are_refused():
 
     for bad in ({"radius": 0}, {"dilate": -1}, {"fill_sigma": -1.0}, {"fill_sigma": float("nan")}, {"snap": 0.5},
                 {"snap_clear": 0.5}, {"snap_clear": -0.1}, {"reach": -1}, {"relabel_floor": -0.1},
-                {"relabel_radius": -1}, {"middle": -1}, {"min_separation": -0.1}, {"separation_floor": 0.0},
-                {"back": "nearest"},
+                {"relabel_radius": -1}, {"middle": -1}, {"middle_layer": -1}, {"min_separation": -0.1},
+                {"separation_floor": 0.0}, {"back": "nearest"},
                 {"separation_where": "anywhere"}, {"through": -0.01}, {"through": float("nan")},
                 {"laplacian_sure": -0.1}, {"laplacian_sure": float("nan")}, {"laplacian_free": -1}):
         with pytest.raises(VfxStereoError, match="soft edges"):
@@ -1028,7 +1028,7 @@ def test_a_rim_fattened_beside_a_nearer_grille_goes_back_through_its_middle_matt
     views = s.views()
     final = {}
     for middle in (0, 2):
-        params = softedge.SoftEdgeParams(middle=middle)
+        params = softedge.SoftEdgeParams(middle=middle, middle_layer=0)  # (the third layer rewrites ``info``)
         vol = layers.initial_volume(views, warper, 2, disparity, index, white=1.0)
         _, info, final[middle] = softedge.soften_edges_passes(vol, views, warper, 2, disparity, index,
                                                              params=params, white=1.0)
@@ -1197,3 +1197,56 @@ def test_a_second_soft_round_starts_from_the_front_the_first_left(shared_data):
     assert changed.sum() > 50
     near = ndimage.binary_dilation(moved | softedge._edges(index, 1), iterations=2 * base.soft_edge.radius + 2)
     assert not (changed & ~near).any()
+
+
+def _grille_veil_wall(opacity=0.6):
+    """:func:`_grille_card_wall` with the card a veil: a 14 px wide orange strip ``opacity`` opaque (d = 4), behind
+    the grille's bars every 16 px (d = 8), over the random-dot wall (d = 1); K = 5."""
+    from vfxstereo import zkey_scenes as scenes
+
+    rng = np.random.default_rng(7)
+    canvas = (64 + 2 * 24, 96 + 2 * 24)
+    wall = rng.uniform(0.1, 0.9, canvas + (3,)).astype(np.float32)
+    veil = np.zeros((40, 14, 4), np.float32)
+    veil[..., :3] = np.array([0.9, 0.5, 0.1], np.float32) * opacity  # premultiplied
+    veil[..., 3] = opacity
+    grille = scenes.fence(canvas, spacing=16.0, thickness=1.5, angle=90.0, colour=(0.2, 0.6, 0.3), rng=rng)
+    return scenes.Scene("grille, veil, wall", [
+        scenes.PlanarLayer("wall", scenes.opaque(wall), 1.0),
+        scenes.PlanarLayer("veil", scenes.place(veil, canvas, 24 + 12, 24 + 41), 4.0),
+        scenes.PlanarLayer("grille", grille, 8.0)], positions=np.arange(-2.0, 3.0), reference=2, margin=24,
+        gains=np.ones(5))
+
+
+def test_a_soft_surface_behind_a_grille_gets_its_own_alpha_as_a_third_layer():
+    """Every pixel of a narrow veil (0.6 opaque) lies within the band's 8 px of a grille bar in front of it: on
+    the bar's far side, matted as grille over veil, with the veil written as an opaque back cell. With
+    ``middle_layer``, the pixels clear of the grille are written as veil over wall instead, with the veil's own
+    alpha, and the grille's bars keep theirs."""
+    s = _grille_veil_wall()
+    planes = np.arange(0.0, 9.5, 0.5)
+    warper = Warper(Camera.from_positions(s.positions, s.reference), planes, s.shape)
+    truth = s.gt_disparity(0.5).astype(np.float32)
+    index = layers.plane_index(truth, planes)
+    views = s.views()
+    grille_alpha = s.split(6.0)[0][..., 3]
+    veil = (truth == 4.0) & (grille_alpha == 0)
+    assert veil.sum() > 300
+    got = {}
+    for reach in (0, 8):
+        vol = layers.initial_volume(views, warper, 2, truth, index, white=1.0)
+        out, info, _ = softedge.soften_edges_passes(vol, views, warper, 2, truth, index, white=1.0,
+                                                    params=softedge.SoftEdgeParams(middle_layer=reach))
+        if not reach:
+            assert (info.front[veil] == 16).mean() > 0.9 and info.layer is None  # the grille's far side
+        else:  # most of the veil clear of the bars is written as veil over wall
+            assert (info.front[veil] == 8).mean() > 0.6, (info.front[veil] == 8).mean()  # measured 0.76
+        cover = 1.0 - np.prod(1.0 - out[planes > 2.0, ..., 3], axis=0)  # what covers a card at d = 2
+        truth_cover = s.split(2.0)[0][..., 3]
+        got[reach] = (float(np.abs(cover - truth_cover)[veil].mean()),
+                      float(np.abs(cover - truth_cover)[grille_alpha > 0.5].mean()))
+        flat = LayerStack(out, planes).flatten()[..., :3]  # the reference view is reproduced
+        assert np.abs(flat - views[2])[info.band].max() < 1e-4
+    assert got[0][0] > 0.35 and got[8][0] < 0.7 * got[0][0], got  # measured 0.40 and 0.25
+    assert got[8][1] <= got[0][1] + 0.001, got  # the bars' own cover: measured 0.174 both
+

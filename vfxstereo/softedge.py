@@ -32,7 +32,9 @@ Near-side pixels farther from the jump, up to ``relabel_radius`` px, are matted 
 a pixel the matte puts clear of the foreground moves back, and the next pass's band takes it in. That is how a
 hole the depth map filled (a plain wall seen through wicker) opens, pass by pass from its rim. Far-side pixels
 within ``middle`` px of a surface farther than their own are matted a second time, as that surface's near side,
-the same way: a fattened fence bar beside a nearer grille goes back.
+the same way: a fattened fence bar beside a nearer grille goes back. Those within ``middle_layer`` px of it
+that come out clear of the nearer surface, and soft over the farther one, are written as that edge at the end
+(:func:`write_middle_layer`): a third layer, for the curls, leaves or hair seen between a grille's bars.
 
 The result replaces the band's cells: the front cell gets (C, alpha) with ``C = I_ref - (1 - alpha) B_ref``
 (so the reference view is reproduced), the back cell the background colour, opaque, and cells between them
@@ -509,6 +511,35 @@ class SoftEdgeParams:
     after the choice (session 43): the held-out scenes +0.13 / +0.15 (60 rows, none below -0.07), all 362 rows
     +0.10 / +0.11; Middlebury's held-out views tsukuba 34.05 -> 33.95 dB, teddy 31.22 -> 31.23, Cloth1 41.29 the
     same; the soft-edge stage takes 1.01-1.05x the time (three z-key scenes, side by side)."""
+    middle_layer: int = 8
+    """Far-side band pixels (a nearer surface within ``radius``) whose own surface has a farther one within this many
+    px are matted a third time, as near-side pixels of that farther surface (the estimate of ``middle``, over this
+    reach). Where the front's final alpha (after the matting Laplacian) is 0 and that estimate is soft -- below 1,
+    with the views or the colour weighing at least twice the label -- the pixel is written as that edge instead:
+    its own surface with its own alpha over the farther one, the alpha fitted by the matting Laplacian with its own
+    surface's group (:func:`write_middle_layer`; in the solver, once, after the last soft round). 0: off. Behind a
+    grille, a wire or a lattice every pixel within ``radius`` of a bar is on the bar's far side, and its back cell
+    -- its own surface -- was written opaque: curls, leaves or hair seen between the bars came out solid where they
+    are sparse. Soft pixels made solid were the largest share of the band's alpha error on the K = 5 tuning rows
+    (31 %, session 59; most of it on lattice_leaves, leaves_wire_bowling, curls_wire_midd, boards_rocks), and on
+    the three grille scenes 38-95 % of it lay within 8 px of a farther surface, 75-97 % within 32.
+
+    Measured (session 59, z-key frame / band dB over 0, depth maps as stored): tuning rows (157 a rig) K = 5
+    +0.08 / +0.11, K = 2 +0.01 / +0.03, no row newly losing to the SGBM key (ostrich_grille K = 5 +2.3 / +2.3 and
+    +1.2 / +1.6, shelf_grille K = 5 +1.2 / +1.2, bear_pillar K = 5 +1.0 / +1.0, curls_wire_midd K = 5 +1.1 / +1.2;
+    worst rabbit_cream_board K = 5 -0.0 / -0.35, sign_plant_aloe K = 5 -0.9 / -0.2); held-out rows, scored after
+    the choice (42 a rig): K = 5 +0.11 / +0.13 (railing_subject_rocks +1.8 / +1.8), K = 2 +0.03 / +0.04; all 398
+    rows 33.09 / 26.38 -> 33.15 / 26.46. Tried on the tuning rows, not kept (each against 0, K = 5 ; K = 2): written
+    in every soft round, +0.06 / +0.07 ; +0.04 / -0.01 against +0.10 / +0.14 ; +0.04 / -0.01 after the last (with
+    the views or colour weighing once the label), rows down to -0.8 (the next round reads a middle surface below
+    0.5 as a front that moved back and rebuilds it opaque on the wall); the estimate as it is, without the
+    Laplacian (and in every round), +0.02 / +0.00 ; +0.01 / -0.08, rows down by 10-18 dB (shelf_grille's
+    near-exact card at d = 3: a solid shelf's edge read 0.4 by the colour model); the views or colour weighing
+    once the label, not twice, +0.10 / +0.14 ; +0.04 / -0.01, fur_pillar_monopoly K = 2 d = 3.4 newly losing (one
+    solid pixel at 0.59, 60 -> 53 dB); a reach of 16 px, +0.05 / +0.11 ; +0.00 / -0.08; the candidates limited to
+    pixels whose front the per-pixel estimate already calls clear, about the same on the tuning rows, but on the
+    veil behind a grille of tests/test_layers.py that estimate reads most of the veil as grille (alpha error 0.34
+    against 0.25)."""
     third_surface: bool = True
     """The multi-view estimate leaves out a view whose z-buffer, where it sees the band pixel's front point, holds
     a surface between the front and the back (more than the visibility tolerance from either): its ray meets that
@@ -521,7 +552,8 @@ class SoftEdgeParams:
     def __post_init__(self):
         if (self.radius < 1 or self.dilate < 0 or not self.fill_sigma >= 0 or self.search < 1
                 or not 0 <= self.snap < 0.5 or not 0 <= self.snap_clear < 0.5 or self.passes < 1
-                or self.reach < 0 or self.relabel_radius < 0 or self.middle < 0 or not self.through >= 0
+                or self.reach < 0 or self.relabel_radius < 0 or self.middle < 0 or self.middle_layer < 0
+                or not self.through >= 0
                 or self.relabel_explained < 0 or self.relabel_floor < 0
                 or self.min_separation < 0 or not self.separation_floor > 0
                 or self.back not in ("farthest", "adjacent")
@@ -530,7 +562,7 @@ class SoftEdgeParams:
                 or self.laplacian_free < 0 or not self.outer_plain >= 0):
             raise VfxStereoError("soft edges: radius >= 1, dilate >= 0, fill_sigma >= 0, search >= 1, "
                                  "0 <= snap < 0.5, 0 <= snap_clear < 0.5, passes >= 1, reach >= 0, "
-                                 "relabel_radius >= 0, middle >= 0, "
+                                 "relabel_radius >= 0, middle >= 0, middle_layer >= 0, "
                                  "relabel_explained >= 0, relabel_floor >= 0, through >= 0, "
                                  "min_separation >= 0, separation_floor > 0, back 'farthest' or 'adjacent', "
                                  "separation_where 'everywhere' or 'plain', laplacian >= 0, laplacian_eps > 0, "
@@ -739,6 +771,9 @@ class SoftEdges:
     plain_back: np.ndarray | None = None  # (H, W) bool, the back surface the views see around the pixel is plain
     middle: dict | None = None  # far-side pixels matted as near-side ones too (H, W): "alpha", "back", "confidence",
     # and "explained" (2, H, W); see SoftEdgeParams.middle
+    layer: dict | None = None  # the band pixels written as their middle edge (SoftEdgeParams.middle_layer): "at" (their
+    # places among the matted pixels, ``np.nonzero`` order), and per pixel "alpha", "front", "back", "confidence",
+    # "views" and "weight" of that edge
 
 
 def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, disparity: np.ndarray,
@@ -800,8 +835,9 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
         outer = ~band & (index - fmin >= jump) & (ndimage.maximum_filter(index, size=size) - index < jump)
         matted = band | outer
     middle = None  # far-side pixels within ``p.middle`` px of a farther surface: matted as its near side too
-    if p.middle > 0:
-        middle = far_side & _before_farther(index, p.middle, jump)
+    reach_mid = max(p.middle, p.middle_layer)  # (and within ``p.middle_layer`` px, for the third layer)
+    if reach_mid > 0:
+        middle = far_side & _before_farther(index, reach_mid, jump)
     out = volume if inplace else volume.copy()
     info = SoftEdges(band=band, alpha=np.full((h, w), np.nan, np.float32), front=np.full((h, w), -1, np.int32),
                      back=np.full((h, w), -1, np.int32), confidence=np.zeros((h, w), np.float32))
@@ -845,7 +881,7 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
         md_back = d[mb].astype(np.float64)
         r2 = np.nonzero(mh < 0)[0]
         if len(r2):  # always found: ``middle``'s own test looked for a farther pixel in the same square
-            adj_plane, md_back[r2] = _adjacent_back(my[r2], mx[r2], index, disparity, mf[r2], jump, p.middle)
+            adj_plane, md_back[r2] = _adjacent_back(my[r2], mx[r2], index, disparity, mf[r2], jump, reach_mid)
             mb[r2] = adj_plane
         ys, xs = np.concatenate([ys, my]), np.concatenate([xs, mx])
         f, b = np.concatenate([f, mf]), np.concatenate([b, mb])
@@ -854,6 +890,9 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
         if outer_px is not None:
             outer_px = np.concatenate([outer_px, np.zeros(len(my), bool)])
     extra = np.arange(len(ys)) >= n_main
+    # middle pixels beyond ``p.middle`` px, matted for the third layer alone: kept out of what the others' backgrounds
+    # sample (``through``), so that the band's own estimates are as without them
+    layer_only = extra & ~_before_farther(index, p.middle, jump)[ys, xs] if p.middle_layer > p.middle else None
     # the backgrounds, one image per back plane in use
     K = views.shape[0]
     N = len(ys)
@@ -885,9 +924,10 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
         used = None  # with ``through``: the plane's points the band samples (bilinear: the 4 around each)
         if p.through > 0:
             used = np.zeros((h, w), bool)
+            mark = sel if layer_only is None else sel & ~layer_only
             for X, Y in behind:
-                x0 = np.clip(np.floor(np.nan_to_num(X[sel])).astype(np.int64), 0, max(w - 2, 0))
-                y0 = np.clip(np.floor(np.nan_to_num(Y[sel])).astype(np.int64), 0, max(h - 2, 0))
+                x0 = np.clip(np.floor(np.nan_to_num(X[mark])).astype(np.int64), 0, max(w - 2, 0))
+                y0 = np.clip(np.floor(np.nan_to_num(Y[mark])).astype(np.int64), 0, max(h - 2, 0))
                 for dy in (0, 1):
                     for dx in (0, 1):
                         used[y0 + dy, x0 + dx] = True
@@ -965,6 +1005,19 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
         raise VfxStereoError("soften_edges: an edge lies on a plane the volume does not hold")
     wr = ~extra if outer_px is None else ~outer_px & ~extra  # the band's pixels: the outer pixels' cells stay
     I0 = plate[ys, xs]
+    at = mid_at = np.zeros(0, np.int64)
+    if p.middle_layer > 0 and len(ys) > n_main:  # the third layer's candidates: see SoftEdgeParams.middle_layer
+        pos = np.full((h, w), -1, np.int64)
+        pos[ys[:n_main], xs[:n_main]] = np.arange(n_main)
+        mid_at = np.arange(n_main, len(ys))
+        at = pos[ys[mid_at], xs[mid_at]]  # the middle pixels' own band entries (far side: always in the band)
+        sel = at >= 0
+        if p.middle_layer < reach_mid:
+            sel &= _before_farther(index, p.middle_layer, jump)[ys[mid_at], xs[mid_at]]
+        # soft behind the front, where the views or the colour weigh at least twice the label (whether the front
+        # is clear is decided at the end)
+        sel &= (alpha[mid_at] < 1.0) & (wv_[mid_at] + wc_[mid_at] >= 2.0 * p.w_prior)
+        at, mid_at = at[sel], mid_at[sel]
     _write_band(out, ys[wr], xs[wr], f[wr], b[wr], alpha[wr], I0[wr], B[reference][wr], slot, held,
                 max(1.0, float(plate.max())))
     mn = slice(0, n_main)
@@ -986,8 +1039,14 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     info.estimates = {"views": a_views[mn], "colour": np.where(have_c, a_colour, np.nan)[mn], "separation": sep[mn],
                       "residual": resid[mn], "prior": prior[mn],
                       "weight": (wv_ + wc_ + p.w_prior).astype(np.float32)[mn]}
-    if len(ys) > n_main:
-        mx_ = slice(n_main, None)
+    if len(at):
+        info.layer = {"at": at, "alpha": alpha[mid_at], "front": f[mid_at], "back": b[mid_at],
+                      "confidence": var_b[mid_at], "views": a_views[mid_at],
+                      "weight": (wv_ + wc_ + p.w_prior).astype(np.float32)[mid_at], "colour": B[reference][mid_at]}
+    if p.middle > 0 and len(ys) > n_main:  # (relabel's: within ``p.middle`` px of the farther surface)
+        mx_ = np.arange(n_main, len(ys))
+        if p.middle < reach_mid:
+            mx_ = mx_[_before_farther(index, p.middle, jump)[ys[mx_], xs[mx_]]]
         my, mx = ys[mx_], xs[mx_]
         info.middle = {"alpha": np.full((h, w), np.nan, np.float32), "back": np.full((h, w), -1, np.int32),
                        "confidence": np.zeros((h, w), np.float32),
@@ -1037,7 +1096,8 @@ def soften_edges_passes(volume: np.ndarray, views: np.ndarray, warper, reference
                         index: np.ndarray, *, params: SoftEdgeParams | None = None, gains: np.ndarray | None = None,
                         zbuffers: list[np.ndarray] | None = None, progress: Progress | None = None,
                         inplace: bool = False, planes: np.ndarray | None = None,
-                        white: float = 1.0, on_pass=None) -> tuple[np.ndarray, SoftEdges, np.ndarray]:
+                        white: float = 1.0, on_pass=None,
+                        third_layer: bool = True) -> tuple[np.ndarray, SoftEdges, np.ndarray]:
     """:func:`soften_edges`, then up to ``params.passes - 1`` more passes that follow the matte.
 
     After each pass, :func:`relabel` sends the near-side pixels whose alpha came out below 0.5 back to their
@@ -1048,7 +1108,9 @@ def soften_edges_passes(volume: np.ndarray, views: np.ndarray, warper, reference
     ``volume`` is the initial volume of ``disparity``/``index`` (clamped to ``white``); it is written only
     with ``inplace``. ``on_pass(n, disparity, moved_disparity, info)``, if given, is called after each
     relabelling that moves pixels (``info``: the pass that decided the moves; for diagnostics, e.g.
-    ``benchmarks/softedge_passes.py``). Returns ``(volume, SoftEdges of the last pass, the depth map it used)``.
+    ``benchmarks/softedge_passes.py``). With ``third_layer`` False, the third layer (``params.middle_layer``) is
+    left for :func:`write_middle_layer` (a caller that softens the edges again from the front this volume leaves).
+    Returns ``(volume, SoftEdges of the last pass, the depth map it used)``.
     """
     from vfxstereo import layers
     from vfxstereo.depth import zbuffer
@@ -1089,7 +1151,72 @@ def soften_edges_passes(volume: np.ndarray, views: np.ndarray, warper, reference
                     slot, np.arange(len(warper.disparities)) if planes is None else np.asarray(planes, np.int64),
                     max(1.0, float(plate.max())))
         report(progress, "soft-edges", 1, 1)
+    if third_layer:
+        write_middle_layer(out, info, views, warper, reference, index, params=p, planes=planes)
     return out, info, disparity
+
+
+def write_middle_layer(volume: np.ndarray, info: SoftEdges, views: np.ndarray, warper, reference: int,
+                       index: np.ndarray, *, params: SoftEdgeParams | None = None,
+                       planes: np.ndarray | None = None) -> None:
+    """Write the third layer (``SoftEdgeParams.middle_layer``) into ``volume``, where the front's final alpha is 0.
+
+    ``info`` is what :func:`soften_edges_passes` returned for ``volume`` (its ``layer``: the candidates) and
+    ``index`` the map it started from. Those band pixels become their middle edge's -- the pixel's own surface over
+    the farther one behind it -- in ``volume`` and in ``info``; with ``params.laplacian``, that edge's alpha is
+    solved by :func:`laplacian_matte` with the pixel in its own surface's group (a second solve, of the groups
+    that hold such pixels only).
+    """
+    from vfxstereo.layers import slots
+
+    if info.layer is None:
+        return
+    p = params or SoftEdgeParams()
+    plate = np.ascontiguousarray(views[reference], np.float32)
+    slot = slots(planes, len(warper.disparities))
+    held = np.arange(len(warper.disparities)) if planes is None else np.asarray(planes, np.int64)
+    white = max(1.0, float(plate.max()))
+    jump = _jump_planes(p, warper.disparities)
+    lay = info.layer
+    ys, xs = np.nonzero(~np.isnan(info.alpha))
+    keep = info.alpha[ys[lay["at"]], xs[lay["at"]]] <= 0.0
+    if not keep.any():
+        info.layer = None
+        return
+    lay = info.layer = {k: v[keep] for k, v in lay.items()}
+    at = lay["at"]
+    only = np.zeros(len(ys), bool)
+    only[at] = True
+    if p.laplacian > 0:
+        sub = SoftEdges(band=info.band, alpha=info.alpha.copy(), front=info.front.copy(), back=info.back.copy(),
+                        confidence=info.confidence.copy(), estimates=info.estimates, layer=lay)
+        _as_layer(sub)
+        alpha = laplacian_matte(sub, plate, index, p, jump=jump, only=only)[at]
+    else:
+        alpha = lay["alpha"]
+    y, x = ys[at], xs[at]
+    _write_band(volume, y, x, lay["front"], lay["back"], alpha, plate[y, x], lay["colour"], slot, held, white)
+    _as_layer(info)
+    info.alpha[y, x] = alpha
+
+
+def _as_layer(info: SoftEdges) -> None:
+    """``info`` with the band pixels of ``info.layer`` made their middle edge's: front, back, alpha and weights."""
+    lay = info.layer
+    ys, xs = np.nonzero(~np.isnan(info.alpha))
+    at = lay["at"]
+    y, x = ys[at], xs[at]
+    info.alpha[y, x] = lay["alpha"]
+    info.front[y, x] = lay["front"]
+    info.back[y, x] = lay["back"]
+    info.confidence[y, x] = lay["confidence"]
+    est = dict(info.estimates)
+    for key in ("views", "weight"):
+        est[key] = np.array(est[key], copy=True)
+        est[key][at] = lay[key]
+    est["prior"] = np.array(est["prior"], copy=True)
+    est["prior"][at] = 1.0
+    info.estimates = est
 
 
 LAPLACIAN_FREE_WEIGHT = 0.01
@@ -1115,7 +1242,7 @@ def laplacian_bytes(shape: tuple[int, int], p: SoftEdgeParams | None = None) -> 
 
 
 def laplacian_matte(info: SoftEdges, plate: np.ndarray, index: np.ndarray, p: SoftEdgeParams,
-                    jump: int = 0) -> np.ndarray:
+                    jump: int = 0, only: np.ndarray | None = None) -> np.ndarray:
     """The matted pixels' alpha after the closed-form matting step (``SoftEdgeParams.laplacian``).
 
     Minimises ``a^T L a + sum_i lambda_i (a_i - alpha_i)^2`` over the matted pixels (the band and the outer
@@ -1133,6 +1260,8 @@ def laplacian_matte(info: SoftEdges, plate: np.ndarray, index: np.ndarray, p: So
     matted set, but those more than ``jump`` planes behind the nearest matted pixel's front stay 0. A matted pixel
     whose back plane lies on or in front of its group's farthest front is covered for the group whatever its own
     alpha: its data in the group's solve is 1, and it keeps its estimate.
+    With ``only`` (bool, one per matted pixel), only the groups and tiles that hold such pixels are solved (the
+    other pixels keep their estimate).
     Solved in tiles (:data:`LAPLACIAN_TILE`) by conjugate gradients with an incomplete Cholesky preconditioner
     (``pymatting.cg``, ``pymatting.ichol``). Afterwards the pixels the views settle (``p.laplacian_sure``) get
     their estimate back: 0 on the far side, 1 on the near side.
@@ -1175,13 +1304,17 @@ def laplacian_matte(info: SoftEdges, plate: np.ndarray, index: np.ndarray, p: So
     del front
     pos = np.full(matted.shape, -1, np.int64)
     pos[ys, xs] = np.arange(len(ys))
+    only_map = None
+    if only is not None:
+        only_map = np.zeros(matted.shape, bool)
+        only_map[ys[only], xs[only]] = True
     image = np.sqrt(np.clip(plate, 0.0, 1.0)).astype(np.float64)
     out = alpha.copy()
     h, w = matted.shape
     t, m = LAPLACIAN_TILE, LAPLACIAN_MARGIN
     for y0 in range(0, h, t):
         for x0 in range(0, w, t):
-            if not matted[y0:y0 + t, x0:x0 + t].any():
+            if not (matted if only_map is None else only_map)[y0:y0 + t, x0:x0 + t].any():
                 continue
             sy = slice(max(y0 - m, 0), min(y0 + t + m, h))
             sx = slice(max(x0 - m, 0), min(x0 + t + m, w))
@@ -1192,7 +1325,8 @@ def laplacian_matte(info: SoftEdges, plate: np.ndarray, index: np.ndarray, p: So
             inner[y0 - sy.start:y0 - sy.start + t, x0 - sx.start:x0 - sx.start + t] = True
             group_t, pos_t, index_t, known_t = (v[sy, sx].ravel() for v in (group, pos, index, known))
             matted_t, inner = matted_t.ravel(), inner.ravel()
-            for g in np.unique(group_t[matted_t & inner]):
+            solve = matted_t & inner if only_map is None else only_map[sy, sx].ravel() & inner
+            for g in np.unique(group_t[solve]):
                 u = matted_t & (group_t == g)
                 # the other groups' pixels are known for this one: covered where their surface is on or before it;
                 # so are the pixels outside, unless more than a jump lies between them and the nearest front
