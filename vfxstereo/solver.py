@@ -457,10 +457,10 @@ def _solve_robust(views, warper, camera, disparities, config, *, progress, white
     if config.soft_edges:
         from vfxstereo import softedge
 
-        rgba, _, _ = timed("soft-edges", softedge.soften_edges_passes, rgba, views, warper, ref_view,
-                           res.disparity, index, params=config.soft_edge, gains=gains, zbuffers=zbuffers,
-                           progress=progress, inplace=in_place, planes=planes, white=white,
-                           on_pass=on_soft_pass)
+        rgba, info, _ = timed("soft-edges", softedge.soften_edges_passes, rgba, views, warper, ref_view,
+                              res.disparity, index, params=config.soft_edge, gains=gains, zbuffers=zbuffers,
+                              progress=progress, inplace=in_place, planes=planes, white=white,
+                              on_pass=on_soft_pass, third_layer=False)
         layers.clamp(rgba, white)
         # later rounds: the layers and soft edges again, from the front surface the passes left (the views'
         # gains stay the first map's); the result's disparity stays the depth stage's
@@ -475,10 +475,14 @@ def _solve_robust(views, warper, camera, disparities, config, *, progress, white
             zbuffers = [depth.zbuffer(warper, d_round, k) for k in range(views.shape[0])]
             rgba = timed("layers", layers.initial_volume, views, warper, ref_view, d_round, i_round,
                          gains=gains, zbuffers=zbuffers, planes=planes, white=white, out=rgba)  # no second volume
-            rgba, _, _ = timed("soft-edges", softedge.soften_edges_passes, rgba, views, warper, ref_view,
-                               d_round, i_round, params=config.soft_edge, gains=gains, zbuffers=zbuffers,
-                               progress=progress, inplace=True, planes=planes, white=white)
+            rgba, info, _ = timed("soft-edges", softedge.soften_edges_passes, rgba, views, warper, ref_view,
+                                  d_round, i_round, params=config.soft_edge, gains=gains, zbuffers=zbuffers,
+                                  progress=progress, inplace=True, planes=planes, white=white, third_layer=False)
             layers.clamp(rgba, white)
+        # the third layer last: a later round would read its soft middle surface as a front that moved
+        timed("soft-edges", softedge.write_middle_layer, rgba, info, views, warper, ref_view, i_round,
+              params=config.soft_edge, planes=planes)
+        layers.clamp(rgba, white)
     if refining:
         rgba = timed("refine", refine.refine, initial, disparities, views, warper,
                      config.refine_config(white=white), progress=progress)
