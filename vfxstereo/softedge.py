@@ -771,9 +771,9 @@ class SoftEdges:
     plain_back: np.ndarray | None = None  # (H, W) bool, the back surface the views see around the pixel is plain
     middle: dict | None = None  # far-side pixels matted as near-side ones too (H, W): "alpha", "back", "confidence",
     # and "explained" (2, H, W); see SoftEdgeParams.middle
-    layer: dict | None = None  # the band pixels written as their middle edge (SoftEdgeParams.middle_layer): "at" (their
-    # places among the matted pixels, ``np.nonzero`` order), and per pixel "alpha", "front", "back", "confidence",
-    # "views" and "weight" of that edge
+    layer: dict | None = None  # the third layer (SoftEdgeParams.middle_layer): from soften_edges its candidates, after
+    # write_middle_layer the pixels written; "at" (their places among the matted pixels, ``np.nonzero`` order), and
+    # per pixel "alpha", "front", "back", "confidence", "views", "weight" and "colour" (the background) of that edge
 
 
 def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, disparity: np.ndarray,
