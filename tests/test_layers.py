@@ -1221,8 +1221,8 @@ def _grille_veil_wall(opacity=0.6):
 def test_a_soft_surface_behind_a_grille_gets_its_own_alpha_as_a_third_layer():
     """Every pixel of a narrow veil (0.6 opaque) lies within the band's 8 px of a grille bar in front of it: on
     the bar's far side, matted as grille over veil, with the veil written as an opaque back cell. With
-    ``middle_layer``, the pixels clear of the grille are written as veil over wall instead, with the veil's own
-    alpha, and the grille's bars keep theirs."""
+    ``middle_layer``, that back cell becomes veil over wall, with the veil's own alpha, behind the grille's edge,
+    and the grille's bars keep their cover."""
     s = _grille_veil_wall()
     planes = np.arange(0.0, 9.5, 0.5)
     warper = Warper(Camera.from_positions(s.positions, s.reference), planes, s.shape)
@@ -1240,14 +1240,14 @@ def test_a_soft_surface_behind_a_grille_gets_its_own_alpha_as_a_third_layer():
         if not reach:
             assert (info.front[veil] == 16).mean() > 0.9 and info.layer is None  # the grille's far side
         else:  # most of the veil clear of the bars is written as veil over wall
-            assert (info.front[veil] == 8).mean() > 0.6, (info.front[veil] == 8).mean()  # measured 0.76
+            assert (info.front[veil] == 8).mean() > 0.9, (info.front[veil] == 8).mean()  # measured 1.00
         cover = 1.0 - np.prod(1.0 - out[planes > 2.0, ..., 3], axis=0)  # what covers a card at d = 2
         truth_cover = s.split(2.0)[0][..., 3]
         got[reach] = (float(np.abs(cover - truth_cover)[veil].mean()),
                       float(np.abs(cover - truth_cover)[grille_alpha > 0.5].mean()))
         flat = LayerStack(out, planes).flatten()[..., :3]  # the reference view is reproduced
         assert np.abs(flat - views[2])[info.band].max() < 1e-4
-    assert got[0][0] > 0.35 and got[8][0] < 0.7 * got[0][0], got  # measured 0.40 and 0.25
+    assert got[0][0] > 0.35 and got[8][0] < 0.6 * got[0][0], got  # measured 0.40 and 0.19
     assert got[8][1] <= got[0][1] + 0.001, got  # the bars' own cover: measured 0.174 both
 
 
@@ -1274,6 +1274,6 @@ def test_the_solver_writes_the_third_layer_after_its_last_soft_round():
         err[reach] = float(np.abs(cover - s.split(2.0)[0][..., 3])[veil].mean())
         on_veil = stack.rgba[int(np.searchsorted(stack.disparities, 4.0)), ..., 3][veil]
         soft[reach] = float(((on_veil > 0.2) & (on_veil < 0.9)).mean())
-    # measured: 0.41 and 0.26, 0.0 and 0.56 of the veil soft; written in every round instead, 0.29 and 0.52
-    assert err[0] > 0.35 and err[8] < 0.675 * err[0], err
-    assert soft[0] < 0.1 < 0.54 < soft[8], soft
+    # measured: 0.41 and 0.19, 0.0 and 0.91 of the veil soft; written in every round instead, 0.46 and 0.23
+    assert err[0] > 0.35 and err[8] < 0.6 * err[0], err
+    assert soft[0] < 0.1 < 0.7 < soft[8], soft
