@@ -1184,17 +1184,11 @@ def write_middle_layer(volume: np.ndarray, info: SoftEdges, views: np.ndarray, w
     at = lay["at"]
     only = np.zeros(len(ys), bool)
     only[at] = True
-    if p.laplacian > 0:
-        sub = SoftEdges(band=info.band, alpha=info.alpha.copy(), front=info.front.copy(), back=info.back.copy(),
-                        confidence=info.confidence.copy(), estimates=info.estimates, layer=lay)
-        _as_layer(sub)
-        alpha = laplacian_matte(sub, plate, index, p, jump=jump, only=only)[at]
-    else:
-        alpha = lay["alpha"]
+    _as_layer(info)  # (in place: the solve below reads the middle edges, and ``info`` ends with them)
+    alpha = laplacian_matte(info, plate, index, p, jump=jump, only=only)[at] if p.laplacian > 0 else lay["alpha"]
     y, x = ys[at], xs[at]
     behind = volume[slot[lay["front"]], y, x, :3]  # what the front (written) covers: the plate where it is clear
     _write_band(volume, y, x, lay["front"], lay["back"], alpha, behind, lay["colour"], slot, held, white)
-    _as_layer(info)
     info.alpha[y, x] = alpha
 
 
