@@ -896,7 +896,8 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
     extra = np.arange(len(ys)) >= n_main
     # middle pixels beyond ``p.middle`` px, matted for the third layer alone: kept out of what the others' backgrounds
     # sample (``through``), so that the band's own estimates are as without them
-    layer_only = extra & ~_before_farther(index, p.middle, jump)[ys, xs] if p.middle_layer > p.middle else None
+    near_middle = _before_farther(index, p.middle, jump) if p.middle_layer > p.middle else None  # ``p.middle``'s own
+    layer_only = None if near_middle is None else extra & ~near_middle[ys, xs]
     # the backgrounds, one image per back plane in use
     K = views.shape[0]
     N = len(ys)
@@ -1049,8 +1050,8 @@ def soften_edges(volume: np.ndarray, views: np.ndarray, warper, reference: int, 
                       "weight": (wv_ + wc_ + p.w_prior).astype(np.float32)[mid_at], "colour": B[reference][mid_at]}
     if p.middle > 0 and len(ys) > n_main:  # (relabel's: within ``p.middle`` px of the farther surface)
         mx_ = np.arange(n_main, len(ys))
-        if p.middle < reach_mid:
-            mx_ = mx_[_before_farther(index, p.middle, jump)[ys[mx_], xs[mx_]]]
+        if near_middle is not None:
+            mx_ = mx_[near_middle[ys[mx_], xs[mx_]]]
         my, mx = ys[mx_], xs[mx_]
         info.middle = {"alpha": np.full((h, w), np.nan, np.float32), "back": np.full((h, w), -1, np.int32),
                        "confidence": np.zeros((h, w), np.float32),
@@ -1143,17 +1144,13 @@ def soften_edges_passes(volume: np.ndarray, views: np.ndarray, warper, reference
         out, info = soften_edges(out, views, warper, reference, disparity, index, params=p, gains=gains,
                                  zbuffers=zbuffers, inplace=True, planes=planes)
     if p.laplacian > 0 and info.band.any():
-        from vfxstereo.layers import slots
-
-        plate = np.ascontiguousarray(views[reference], np.float32)
+        plate, slot, held, white = _write_targets(views, reference, warper, planes)
         info.alpha[~np.isnan(info.alpha)] = laplacian_matte(info, plate, index, p,
                                                              jump=_jump_planes(p, warper.disparities))
         ys, xs = np.nonzero(info.band)  # the band's cells: the outer pixels' cells stay
-        slot = slots(planes, len(warper.disparities))
         back = out[slot[info.back[ys, xs]], ys, xs, :3]  # the last pass's background, as written
         _write_band(out, ys, xs, info.front[ys, xs], info.back[ys, xs], info.alpha[ys, xs], plate[ys, xs], back,
-                    slot, np.arange(len(warper.disparities)) if planes is None else np.asarray(planes, np.int64),
-                    max(1.0, float(plate.max())))
+                    slot, held, white)
         report(progress, "soft-edges", 1, 1)
     if third_layer:
         write_middle_layer(out, info, views, warper, reference, index, params=p, planes=planes)
@@ -1172,46 +1169,43 @@ def write_middle_layer(volume: np.ndarray, info: SoftEdges, views: np.ndarray, w
     surface's group (a second solve, of the groups that hold such pixels only). In ``info`` those pixels become
     their middle edge's (front, back and alpha).
     """
-    from vfxstereo.layers import slots
-
     if info.layer is None:
         return
     p = params or SoftEdgeParams()
-    plate = np.ascontiguousarray(views[reference], np.float32)
-    slot = slots(planes, len(warper.disparities))
-    held = np.arange(len(warper.disparities)) if planes is None else np.asarray(planes, np.int64)
-    white = max(1.0, float(plate.max()))
-    jump = _jump_planes(p, warper.disparities)
+    plate, slot, held, white = _write_targets(views, reference, warper, planes)
     lay = info.layer
     ys, xs = np.nonzero(~np.isnan(info.alpha))
     at = lay["at"]
-    only = np.zeros(len(ys), bool)
-    only[at] = True
-    _as_layer(info)  # (in place: the solve below reads the middle edges, and ``info`` ends with them)
-    alpha = laplacian_matte(info, plate, index, p, jump=jump, only=only)[at] if p.laplacian > 0 else lay["alpha"]
     y, x = ys[at], xs[at]
+    # ``info`` takes the middle edges (in place: the solve below reads them, and ``info`` ends with them)
+    info.alpha[y, x] = lay["alpha"]
+    info.front[y, x] = lay["front"]
+    info.back[y, x] = lay["back"]
+    info.confidence[y, x] = lay["confidence"]
+    for key in ("views", "weight"):
+        info.estimates[key][at] = lay[key]
+    info.estimates["prior"][at] = 1.0
+    if p.laplacian > 0:
+        only = np.zeros(len(ys), bool)
+        only[at] = True
+        alpha = laplacian_matte(info, plate, index, p, jump=_jump_planes(p, warper.disparities), only=only)[at]
+    else:
+        alpha = lay["alpha"]
     behind = volume[slot[lay["front"]], y, x, :3]  # what the front (written) covers: the plate where it is clear
     _write_band(volume, y, x, lay["front"], lay["back"], alpha, behind, lay["colour"], slot, held, white)
     info.alpha[y, x] = alpha
 
 
-def _as_layer(info: SoftEdges) -> None:
-    """``info`` with the band pixels of ``info.layer`` made their middle edge's: front, back, alpha and weights."""
-    lay = info.layer
-    ys, xs = np.nonzero(~np.isnan(info.alpha))
-    at = lay["at"]
-    y, x = ys[at], xs[at]
-    info.alpha[y, x] = lay["alpha"]
-    info.front[y, x] = lay["front"]
-    info.back[y, x] = lay["back"]
-    info.confidence[y, x] = lay["confidence"]
-    est = dict(info.estimates)
-    for key in ("views", "weight"):
-        est[key] = np.array(est[key], copy=True)
-        est[key][at] = lay[key]
-    est["prior"] = np.array(est["prior"], copy=True)
-    est["prior"][at] = 1.0
-    info.estimates = est
+def _write_targets(views: np.ndarray, reference: int, warper, planes: np.ndarray | None):
+    """``(plate, slot, held, white)``: what :func:`_write_band` writes with after the passes.
+
+    The reference view, the volume's slot of each plane, the planes it holds and its white.
+    """
+    from vfxstereo.layers import slots
+
+    plate = np.ascontiguousarray(views[reference], np.float32)
+    held = np.arange(len(warper.disparities)) if planes is None else np.asarray(planes, np.int64)
+    return plate, slots(planes, len(warper.disparities)), held, max(1.0, float(plate.max()))
 
 
 LAPLACIAN_FREE_WEIGHT = 0.01
