@@ -115,7 +115,12 @@ class SoftEdgeParams:
     the points the band samples are looked through). The fattened-hair test of ``dilate``: with the rim grown by
     3 px, RMS alpha error 0.174 -> 0.085 (tests/test_layers.py)."""
     w_views: float = 0.3
-    """Weight of the multi-view estimate per unit of background variation (colour^2)."""
+    """Weight of the multi-view estimate per unit of background variation (colour^2). Its least-squares error
+    falls as the background's variation across the views grows, so that variation is its inverse-variance weight,
+    as ``|F - B|^2`` is the colour estimate's. Measured on the head of session 60 (z-key tuning rows, 157 a rig,
+    frame / band dB against 0.3): K = 2 0.6 -0.02 / -0.00, 1.2 -0.07 / -0.03 (boards_rocks -4.7 / -4.1, trolls_art
+    +1.6 / +2.0); K = 5 0.6 -0.04 / -0.10. So no weight of its own for a stereo pair either: at K = 2 neither twice
+    nor four times the weight gains."""
     w_colour: float = 0.5
     """Weight of the single-view colour estimate per unit of foreground/background separation (colour^2),
     divided by ``1 + residual / residual_scale``."""
@@ -132,7 +137,10 @@ class SoftEdgeParams:
     fattened) +0.22 / +0.41, then -0.10 / -0.13 (shelf_grille K = 2 -3.1 / -4.5, hair_shelves K = 2 -3.8 /
     -1.4); of the colour samples that explain a pixel within 1e-4, the one that separates best (as for the
     outer pixels, ``OUTER_TIE``) +0.11 / +0.20, then -0.27 / +0.03 (two_soft_pots K = 5 -3.7 / -0.5); no colour
-    weight where no view sees the background -1.50 / -1.77 (fur_grey_wall K = 2 -7.8 / -8.9)."""
+    weight where no view sees the background -1.50 / -1.77 (fur_grey_wall K = 2 -7.8 / -8.9). Session 60, on the
+    head (tuning rows, 157 a rig, K = 5 ; K = 2): 0.02 -0.30 / -0.40 ; -0.16 / -0.34; 0.005 +0.02 / +0.03 ;
+    +0.00 / +0.14, but rows losing to the SGBM key at K = 2 8 -> 12 (near-exact rows: two_soft_pots' card at
+    d = 3 -7 dB over the frame, fur_pillar_monopoly's at d = 3.4 -9.7 on the band)."""
     snap: float = 0.05
     """Alphas within this of 1 become 1 (most band pixels are clear or solid; the estimates carry noise); until
     session 50 also those within it of 0, which is now ``snap_clear``. Chosen with ``min_separation`` 0.18 (the
@@ -141,7 +149,9 @@ class SoftEdgeParams:
     Middlebury's held-out views, 0.2 / 0.05: tsukuba 32.67 / 32.88, teddy 31.00 / 31.03. With the default
     ``min_separation`` 0, 0.2 / 0.05: the 82 z-key rows of session 15 28.38 / 20.78 -> 28.43 / 20.97; held-out
     tsukuba 32.85 / 32.99, teddy 30.80 / 30.85, Cloth1 40.67 / 40.50, Plastic 39.80 / 39.66, Wood2 42.78 /
-    42.62, Baby3 41.08 / 41.04."""
+    42.62, Baby3 41.08 / 41.04. Session 60, on the head (tuning rows, 157 a rig, against 0.05; K = 5 ; K = 2): 0.03
+    -0.08 / -0.09 ; -0.06 / -0.04 (boards_rocks K = 2 -3.8 / -3.3, petals_grille_plastic K = 5's card at d = 12.4
+    -4.6 on the band)."""
     snap_clear: float = 0.1
     """Alphas below this become 0 (the clear end of ``snap``). Far-side pixels beside a thin front (a grille's
     bars) and the matting Laplacian's spill leave a haze of 0.05-0.1 coverage over what lies behind: a
