@@ -199,7 +199,10 @@ class SolveConfig:
     front-most layer with alpha > 0.5, where it moved off the map's plane) and runs the soft-edge passes on it:
     a pixel the passes moved back becomes background for the next round's volume, z-buffers and bands, so the
     hidden layers and the backgrounds the views see behind it follow. The result's ``disparity`` stays the
-    depth stage's map. A stereo pair always gets one round.
+    depth stage's map. A stereo pair always gets one round: two at K = 2 (session 60, on the head, the 157 K = 2
+    tuning rows, frame / band dB) -0.14 / -0.17, rows losing to the SGBM key 8 -> 15 (fur_pillar_monopoly's card at
+    d = 3.4 -8.6 on the band, curls_wire_midd's at d = 11.6 -3.8, koala_slope -2.5; beanie_grille's card at d = 12
+    +5.8): with one other view, a front the first round's passes moved back has no view left to bring it forward.
 
     Two rounds by default since session 55: measured again on the head (since session 49 the depth stage's second
     visibility pass, the plain pixels' visibility and the soft edges' covered-pixel rules came in), 2 rounds

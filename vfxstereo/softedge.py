@@ -548,9 +548,11 @@ class SoftEdgeParams:
     Laplacian (and in every round), +0.02 / +0.00 ; +0.01 / -0.08, rows down by 10-18 dB (shelf_grille's near-exact card
     at d = 3: a solid shelf's edge read 0.4 by the colour model); the views or colour weighing once the label, not
     twice, +0.10 / +0.14 ; +0.04 / -0.01, fur_pillar_monopoly K = 2 d = 3.4 newly losing (one solid pixel at 0.59, 60 ->
-    53 dB); a reach of 16 px, +0.05 / +0.11 ; +0.00 / -0.08; the candidates limited to pixels whose front the per-pixel
-    estimate (not the fit) calls clear, about the same on the tuning rows, but on the veil behind a grille of
-    tests/test_layers.py that estimate reads most of the veil as grille (alpha error 0.34 against 0.25). Middlebury's
+    53 dB); a reach of 16 px, +0.05 / +0.11 ; +0.00 / -0.08 (session 60: beyond 8 px only where the views alone weigh
+    twice the label, 16 px -0.01 / +0.00 ; -0.00 / +0.00, 32 px -0.02 / -0.02 ; -0.00 / +0.00); the candidates
+    limited to pixels whose front the per-pixel estimate (not the fit) calls clear, about the same on the tuning
+    rows, but on the veil behind a grille of tests/test_layers.py that estimate reads most of the veil as grille
+    (alpha error 0.34 against 0.25). Middlebury's
     held-out views (tsukuba, teddy, Cloth1, Plastic, Wood2): 37.86 -> 37.85 dB (tsukuba 34.00 -> 33.96, Wood2 43.37 ->
     43.38); the soft-edge stage takes 1.10x the time (ostrich_grille, lattice_leaves, curls_wire_midd at K = 5, side by
     side); ``make demo`` unchanged (37.4 / 33.8 dB)."""
