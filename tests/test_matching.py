@@ -105,6 +105,47 @@ def test_a_zbuffer_hides_the_cells_behind_it(rng):
                 assert count[0, x, i] == (0 if (8 <= round(u) <= 11 and d < 2.5) else 1), (x, d)
 
 
+@pytest.mark.parametrize("general", [False, True])
+def test_skipped_pixels_get_no_cost_and_the_others_the_same(rng, general):
+    views, prep = _prepared(rng)
+    h, w = views.shape[1:3]
+    positions = [0.0, 1.0, 2.0]
+    cam = Camera.from_positions(positions, 1)
+    if general:
+        M, M0 = rectified_rig_matrices(positions, positions[1], (h, w))
+        cam = Camera(positions=positions, reference=positions[1], reference_index=1, matrices=M, M0=M0)
+    warper = Warper(cam, np.array([0.0, 1.0, 2.0, 3.0]), (h, w))
+    skip = rng.uniform(size=(h, w)) < 0.3
+    out = {}
+    for name, sk in (("all", None), ("skip", skip)):
+        t = np.zeros((h, w, 4), np.float32)
+        c = np.zeros((h, w, 4), np.uint8)
+        matching.accumulate(prep, warper, 2, 1, t, c, centre=True, skip=sk)
+        out[name] = (t, c)
+    assert out["all"][1][skip].sum() > 0 and out["skip"][1][skip].sum() == 0
+    assert not out["skip"][0][skip].any()
+    np.testing.assert_array_equal(out["skip"][1][~skip], out["all"][1][~skip])
+    np.testing.assert_array_equal(out["skip"][0][~skip], out["all"][0][~skip])
+
+
+def test_partial_views_are_those_a_frame_edge_cuts_where_another_view_sees_every_plane():
+    from vfxstereo.depth import partial_views
+
+    h, w = 6, 40
+    planes = np.array([0.0, 2.0, 4.0, 6.0])
+    warper = Warper(Camera.from_positions([-2.0, -1.0, 0.0, 1.0, 2.0], 2), planes, (h, w))
+    partial = partial_views(warper, [0, 1, 3, 4])
+    # view k sees reference column x at plane d at x - d * (pos_k - 0): inside for every plane iff both ends are
+    for k, pos in ((0, -2.0), (1, -1.0), (3, 1.0), (4, 2.0)):
+        x = np.arange(w)
+        full_k = (x - 6.0 * pos >= 0) & (x - 6.0 * pos <= w - 1)
+        # some view has every plane of every column here (the views on the other side), so the cut ones skip
+        np.testing.assert_array_equal(partial[k][0], ~full_k)
+    # a stereo pair: the one other view is cut at the frame edge and no view has every plane there: none skipped
+    pair = Warper(Camera.from_positions([0.0, 1.0], 0), planes, (h, w))
+    assert not partial_views(pair, [1])[1].any()
+
+
 def test_matching_params_refuse_windows_that_do_not_fit():
     from vfxstereo.errors import VfxStereoError
 

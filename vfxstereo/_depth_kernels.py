@@ -92,13 +92,13 @@ def _cell_cost(cref, vref, cview, vview, y, x, u, v, H, W, rho_census, rho_ad):
 
 @njit(cache=True, parallel=True, nogil=True)
 def accumulate_shift(cref, vref, cview, vview, sx, sy, zbuf, planes, tol, rho_census, rho_ad, centre, total,
-                     count):
+                     count, skip):
     """Rectified rigs: add view k's cost at every cell to ``total`` and 1 to ``count`` where the view sees it.
 
     Cell (y, x, i) samples the view at ``(x - sx[i], y - sy[i])``. With a z-buffer (``zbuf`` of the view's
     size, the largest disparity that lands on each view pixel, -inf where none), a cell is seen only where
     ``zbuf`` at its (nearest) view pixel is at most ``planes[i] + tol``. With ``centre``, the view's mean cost
-    over the cells of the pixel it sees is subtracted first.
+    over the cells of the pixel it sees is subtracted first. Pixels where ``skip`` (H, W) is set get nothing.
 
     A row at a time, a plane at a time: a whole-pixel shift reads the view's row in order (one census tap,
     no interpolation), twice as fast as going pixel by pixel through :func:`_cell_cost`, which the other
@@ -129,6 +129,8 @@ def accumulate_shift(cref, vref, cview, vview, sx, sy, zbuf, planes, tol, rho_ce
                 j = min(int(ad / (C * AD_TABLE_STEP) + 0.5), nad)
                 row[x, i] = rho_census[popcount(cref[y, x] ^ cview[vi, u])] + rho_ad[j]
         for x in range(W):
+            if skip[y, x]:
+                continue
             sm = 0.0
             n = 0
             for i in range(D):
@@ -148,7 +150,8 @@ def accumulate_shift(cref, vref, cview, vview, sx, sy, zbuf, planes, tol, rho_ce
 
 
 @njit(cache=True, parallel=True, nogil=True)
-def accumulate_map(cref, vref, cview, vview, umap, vmap, zbuf, plane, tol, rho_census, rho_ad, total, count, i):
+def accumulate_map(cref, vref, cview, vview, umap, vmap, zbuf, plane, tol, rho_census, rho_ad, total, count, i,
+                   skip):
     """General cameras: :func:`accumulate_shift` for one plane ``i``.
 
     The plane's cells sample the view at ``(umap, vmap)`` (NaN: behind the camera).
@@ -156,6 +159,8 @@ def accumulate_map(cref, vref, cview, vview, umap, vmap, zbuf, plane, tol, rho_c
     H, W = cref.shape
     for y in prange(H):
         for x in range(W):
+            if skip[y, x]:
+                continue
             u = umap[y, x]
             v = vmap[y, x]
             c = _cell_cost(cref, vref, cview, vview, y, x, u, v, H, W, rho_census, rho_ad)

@@ -256,6 +256,20 @@ class DepthConfig:
     over all views."""
     centre: bool = True
     """Centre each view's costs per pixel before the mean over views (:func:`vfxstereo.matching.accumulate`)."""
+    same_views: bool = False
+    """Where some view sees a reference pixel at every plane, compare its planes over those views only
+    (:func:`partial_views`; a stereo pair is unchanged: its one other view never sees the strip at every plane).
+    Near a frame edge the views that lose a pixel at the near planes drop out of those planes' mean, and a mean
+    of fewer centred costs reaches lower minima (the fault ``flat_guard`` records on boards_rocks), so a plain
+    wall at the frame edge takes a nearer subject's depth: within 8 px of the left or right edge 13.3 % of the
+    z-key tuning maps' pixels are more than 1 px off at K = 5 (8.0 % beyond 64 px), and those maps with the two
+    16 px strips set to the truth gain +0.52 / +0.32 dB (frame / band, K = 5) and +0.47 / +0.29 (K = 2).
+
+    Off: measured in session 60 (K = 5, the z-key tuning scenes' maps solved again): bad pixels within 32 px of
+    the frame edges 10.48 -> 9.64 %, farther in 8.35 -> 8.07 %; but the z-key tuning rows (157) 35.27 / 27.98 ->
+    35.16 / 27.94 dB (sheep_duck_wall's full card at d = 10.5 +14.8 / +8.8, ostrich_grille +1.2 / +0.7;
+    rabbit_cream_board's full card at d = 10.5 -10.4 / -2.2, fur_grey_wall -4.2 / -3.0), rows losing to the SGBM
+    key unchanged. Most of the strips' excess over the inside (1.6 of 2.1 points) stays: it is not the mean's."""
     far_bias: float = 0.35
     """Where the cost curve is flat (a surface without texture), add up to this much cost, growing linearly
     from the farthest plane to the nearest, so that an undecided surface goes back rather than taking the
@@ -1329,6 +1343,29 @@ def view_sides(camera, reference: int) -> list[int]:
     return [int(np.sign(round(float(q @ axis), 9))) for q in p]
 
 
+def partial_views(warper, others: list[int]) -> dict[int, np.ndarray]:
+    """Per view of ``others``, the pixels it must skip (``DepthConfig.same_views``): (H, W) bool.
+
+    Those it has inside its frame at some planes but not all, where another view has them at every plane.
+    Rectified or not, a pixel's position in a view moves monotonically with the disparity, so a view that has it
+    inside its frame at the nearest and the farthest plane has it at every plane between.
+    """
+    h, w = warper.shape
+    d = warper.disparities
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float64)
+    full = {}
+    for k in others:
+        inside = np.ones((h, w), bool)
+        for dd in (float(d.min()), float(d.max())):
+            u, v = warper.points_to_view(k, xx.ravel(), yy.ravel(), np.full(h * w, dd))
+            u, v = u.reshape(h, w), v.reshape(h, w)
+            with np.errstate(invalid="ignore"):
+                inside &= (u >= 0) & (u <= w - 1) & (v >= 0) & (v <= h - 1)
+        full[k] = inside
+    some = np.logical_or.reduce([full[k] for k in others]) if others else np.zeros((h, w), bool)
+    return {k: some & ~full[k] for k in others}
+
+
 def combine_views(total: dict, count: dict, unseen: float, penalty: float | None, *,
                   out: np.ndarray | None = None) -> np.ndarray:
     """The cost volume from per-side sums and counts of view costs (see ``DepthConfig.subset_penalty``).
@@ -1893,6 +1930,7 @@ def _robust_depth(views, warper, reference, config, progress, keep_volume) -> De
     def aggregate(cost, out):  # semi-global matching of a cost volume into ``out``
         sgm(cost, prep.grey[reference], P1=config.P1, P2=config.P2, sigma=config.sigma, paths=config.paths, out=out)
 
+    partial = partial_views(warper, others) if config.same_views else None
     for p in range(passes):
         t0 = time.perf_counter()
         for sd in sides:
@@ -1908,7 +1946,7 @@ def _robust_depth(views, warper, reference, config, progress, keep_volume) -> De
             sd = side[k] if len(sides) > 1 else sides[0]
             matching.accumulate(prep, warper, k, reference, total[sd], count[sd], zbuf=zbuf,
                                 tolerance=config.visibility_tolerance * step, centre=config.centre,
-                                params=config.matching)
+                                params=config.matching, skip=None if partial is None else partial[k])
             report(progress, "match", p * len(others) + n + 1, passes * len(others))
         guided = config.aggregation == "guided"
         cost = combine_views(total, count, 0.0 if config.centre else config.matching.max_cost,

@@ -149,7 +149,7 @@ def prepare(views: np.ndarray, params: MatchingParams = MatchingParams()) -> Pre
 
 def accumulate(prepared: Prepared, warper, k: int, ref: int, total: np.ndarray, count: np.ndarray, *,
                zbuf: np.ndarray | None = None, tolerance: float = 0.0, centre: bool = False,
-               params: MatchingParams = MatchingParams()) -> None:
+               params: MatchingParams = MatchingParams(), skip: np.ndarray | None = None) -> None:
     """Add view ``k``'s AD-census cost against view ``ref`` to ``total`` and 1 to ``count`` where it sees a cell.
 
     Parameters
@@ -170,26 +170,29 @@ def accumulate(prepared: Prepared, warper, k: int, ref: int, total: np.ndarray, 
         texture every plane costs about the same in each view but different views cost differently (gain,
         vignetting, noise), so a plain mean over the views that remain favours the planes the costlier views
         miss. Centred costs carry each view's preference between planes and nothing of its level.
+    skip : ndarray of shape (H, W), bool, optional
+        Reference pixels that get no cost from view k at all (:func:`vfxstereo.depth.partial_views`).
     """
     from vfxstereo import _depth_kernels
 
     h, w = warper.shape
     if zbuf is None:
         zbuf = np.full((h, w), -np.inf, np.float32)
+    skip = np.zeros((h, w), np.bool_) if skip is None else np.ascontiguousarray(skip, np.bool_)
     args = (prepared.census[ref], prepared.values[ref], prepared.census[k], prepared.values[k])
     lam = params.tables()
     shifts = warper.shifts(k)
     if shifts is not None:
         sx, sy = shifts
         _depth_kernels.accumulate_shift(*args, sx, sy, zbuf, warper.disparities.astype(np.float32),
-                                        np.float32(tolerance), *lam, bool(centre), total, count)
+                                        np.float32(tolerance), *lam, bool(centre), total, count, skip)
         return
     t_k = np.zeros_like(total) if centre else total
     c_k = np.zeros_like(count) if centre else count
     for i in range(warper.D):
         u, v = warper.sample_map(k, i)
         _depth_kernels.accumulate_map(*args, u, v, zbuf, np.float32(warper.disparities[i]),
-                                      np.float32(tolerance), *lam, t_k, c_k, i)
+                                      np.float32(tolerance), *lam, t_k, c_k, i, skip)
     if centre:
         n = c_k.sum(axis=2, dtype=np.float32)
         mean = np.where(n > 0, t_k.sum(axis=2) / np.maximum(n, 1.0), 0.0).astype(np.float32)
