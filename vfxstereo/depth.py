@@ -269,7 +269,7 @@ class DepthConfig:
     the frame edges 10.48 -> 9.64 %, farther in 8.35 -> 8.07 %; but the z-key tuning rows (157) 35.27 / 27.98 ->
     35.16 / 27.94 dB (sheep_duck_wall's full card at d = 10.5 +14.8 / +8.8, ostrich_grille +1.2 / +0.7;
     rabbit_cream_board's full card at d = 10.5 -10.4 / -2.2, fur_grey_wall -4.2 / -3.0), rows losing to the SGBM
-    key unchanged; Middlebury's 31 sets from all views 8.24 -> 8.55 % bad (Midd1 and Midd2 -2.1, cones +2.9,
+    key unchanged; Middlebury's 31 sets from all views 8.2 -> 8.55 % bad (Midd1 and Midd2 -2.1, cones +2.9,
     Monopoly +1.8; none losing to SGBM). Most of the strips' excess over the inside (1.6 of 2.1 points) stays: it is
     not the mean's."""
     far_bias: float = 0.35
